@@ -1,0 +1,45 @@
+// Clocks: everything that is timed goes through this interface, so tests run on a virtual clock
+// and a run can be replayed deterministically (DESIGN.md: time, budgets and haptics).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+
+namespace pliant {
+
+class Clock {
+ public:
+  virtual ~Clock() = default;
+  /// Seconds since an arbitrary epoch, monotonic.
+  virtual double now() const = 0;
+  /// Waits until now() >= t (returns at once if already past).
+  virtual void sleep_until(double t) = 0;
+};
+
+/// std::chrono::steady_clock; sleeps for real.
+class SteadyClock final : public Clock {
+ public:
+  SteadyClock();
+  double now() const override;
+  void sleep_until(double t) override;
+
+ private:
+  std::chrono::steady_clock::time_point epoch_;
+};
+
+/// A clock that moves only when told: sleep_until jumps to t, advance adds time. Deterministic.
+class VirtualClock final : public Clock {
+ public:
+  explicit VirtualClock(double start = 0.0) : t_(start) {}
+  double now() const override { return t_; }
+  void sleep_until(double t) override {
+    if (t > t_) t_ = t;
+  }
+  /// Moves time forward by dt seconds (e.g. to model the cost of a step).
+  void advance(double dt) { t_ += dt; }
+
+ private:
+  double t_;
+};
+
+}  // namespace pliant

@@ -1,0 +1,24 @@
+// Stages 3-5 behind one interface: the contact-surface method and the penalty baseline differ only
+// here; detection and penetration depth are shared (issue 5, item 7).
+#pragma once
+
+#include <span>
+
+#include "sim/body.h"
+#include "sim/collision/contact_types.h"
+#include "sim/contact/contact_settings.h"
+#include "sim/step_report.h"
+
+namespace pliant {
+
+class ContactResponse {
+ public:
+  virtual ~ContactResponse() = default;
+  /// Resolves `contacts` by changing positions and velocities of the deformable bodies, and fills
+  /// the respond fields of `report` (reactions, pair forces, residual overlap, pressure imbalance).
+  /// `bodies` is indexed by body slot; null for empty slots.
+  virtual void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
+                       const ContactSettings& settings, StepReport& report) = 0;
+};
+
+}  // namespace pliant

@@ -1,0 +1,24 @@
+// How contacts are resolved: the contact-surface method (default) or the penalty baseline.
+#pragma once
+
+namespace pliant {
+
+enum class ContactMethod {
+  contact_surface,  ///< Spillmann & Teschner: displace to the contact surface by pressure balance
+  penalty,          ///< f = k d r springs (the paper's baseline, [10])
+  none,             ///< detect and report only
+};
+
+/// "surface" / "penalty" / "none".
+const char* to_string(ContactMethod method);
+
+struct ContactSettings {
+  ContactMethod method = ContactMethod::contact_surface;
+  int binary_search_iterations = 4;   ///< paper: four suffice
+  bool finishing_projection = false;  ///< beyond the paper: remove the residual overlap exactly
+  double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
+  double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
+  bool friction = true;               ///< Coulomb friction where materials have mu > 0
+};
+
+}  // namespace pliant

@@ -1,0 +1,87 @@
+// One interface for deformation models (algorithms.md section 3). The contact-surface method only
+// needs internal forces, re-evaluated locally after vertices are displaced, so the interface has a
+// cheap local query beside the whole-body one. A model is per body and owns its per-step scratch.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+
+#include "sim/material.h"
+#include "sim/math_types.h"
+#include "sim/mesh/tet_mesh.h"
+
+namespace pliant {
+
+/// Which deformation model a body uses.
+enum class ModelKind {
+  corotational_fem,   ///< Mueller & Gross 2004, implicit Euler + CG (default)
+  teschner_explicit,  ///< Teschner et al. 2004 constraint energies, Verlet (the paper's model)
+};
+
+/// Solver accuracy a model runs at; the real-time governor lowers and raises it within floors.
+struct ModelAccuracy {
+  int max_solver_iterations = 20;   ///< CG iteration cap per step (implicit models)
+  double solver_tolerance = 1e-6;   ///< relative CG residual at which to stop
+};
+
+/// Model settings from the scene. Fields a model does not use are ignored by it.
+struct ModelSettings {
+  ModelAccuracy accuracy;
+  /// Teschner model stiffnesses (N/m-like constants of the constraint energies, E = k C^2 / 2).
+  /// Zero means "derive from the material" (see docs/deformation-models.md).
+  double distance_stiffness = 0.0;
+  double volume_stiffness = 0.0;
+  double area_stiffness = 0.0;
+  double distance_damping = 0.0;  ///< k_d on distance constraints; zero means derive
+};
+
+/// What one step of a model did.
+struct IntegrationResult {
+  int solver_iterations = 0;     ///< CG iterations used (0 for explicit models)
+  double solver_residual = 0.0;  ///< final relative residual
+  bool converged = true;         ///< false if the iteration cap was hit before the tolerance
+  int substeps = 1;              ///< explicit substeps taken for the requested dt
+};
+
+/// Per-step inputs of time integration.
+struct IntegrationInput {
+  std::span<const double> masses;         ///< lumped vertex masses (kg)
+  std::span<const char> fixed;            ///< 1 where a vertex is held in place
+  std::span<const Vec3> external_forces;  ///< gravity plus applied forces (N), per vertex
+  double dt = 1e-3;                       ///< step (s)
+};
+
+class DeformationModel {
+ public:
+  virtual ~DeformationModel() = default;
+
+  virtual ModelKind kind() const = 0;
+
+  /// Internal elastic forces (N) on every vertex at positions x. f.size() == vertex count.
+  virtual void internal_forces(std::span<const Vec3> x, std::span<Vec3> f) = 0;
+
+  /// Internal forces at `vertices` only (f[i] belongs to vertices[i]), evaluating only the elements
+  /// adjacent to them. Called several times per step inside the contact binary search.
+  virtual void internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
+                                  std::span<Vec3> f) = 0;
+
+  /// Elastic energy (J) at positions x; internal_forces is its negative gradient.
+  virtual double elastic_energy(std::span<const Vec3> x) = 0;
+
+  /// Advances positions x and velocities v by one step of in.dt (fixed vertices stay put).
+  virtual IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) = 0;
+
+  virtual void set_accuracy(const ModelAccuracy& accuracy) = 0;
+  virtual ModelAccuracy accuracy() const = 0;
+};
+
+/// Creates a model for a mesh and material. Throws InputError for settings it cannot use.
+std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, TetMeshPtr mesh,
+                                                         const Material& material,
+                                                         const ModelSettings& settings);
+
+/// "corotational_fem" / "teschner_explicit".
+const char* to_string(ModelKind kind);
+
+}  // namespace pliant

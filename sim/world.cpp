@@ -1,0 +1,356 @@
+#include "sim/world.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "sim/contact/contact_surface_response.h"
+#include "sim/contact/penalty_response.h"
+#include "sim/input_error.h"
+
+namespace pliant {
+
+const char* to_string(StepStage stage) {
+  switch (stage) {
+    case StepStage::integrate: return "integrate";
+    case StepStage::detect: return "detect";
+    case StepStage::depth: return "depth";
+    case StepStage::respond: return "respond";
+    case StepStage::report: return "report";
+  }
+  return "unknown";
+}
+
+const char* to_string(ContactMethod method) {
+  switch (method) {
+    case ContactMethod::contact_surface: return "surface";
+    case ContactMethod::penalty: return "penalty";
+    case ContactMethod::none: return "none";
+  }
+  return "unknown";
+}
+
+namespace {
+
+// Times one stage through the caller's profiler, if any.
+class StageScope {
+ public:
+  StageScope(StepProfiler* profiler, StepStage stage) : profiler_(profiler), stage_(stage) {
+    if (profiler_ != nullptr) profiler_->begin(stage_);
+  }
+  ~StageScope() {
+    if (profiler_ != nullptr) profiler_->end(stage_);
+  }
+  StageScope(const StageScope&) = delete;
+  StageScope& operator=(const StageScope&) = delete;
+
+ private:
+  StepProfiler* profiler_;
+  StepStage stage_;
+};
+
+void place_rest_mesh(const TetMesh& mesh, const Pose& pose, std::vector<Vec3>& x) {
+  const auto& rest = mesh.rest_positions();
+  x.resize(rest.size());
+  for (size_t i = 0; i < rest.size(); ++i) x[i] = pose.apply(rest[i]);
+}
+
+void check_material(const Material& m, const std::string& where) {
+  auto positive = [&](double value, const char* name) {
+    if (!(value > 0.0) || !std::isfinite(value)) {
+      throw InputError(InputErrorKind::bad_value, where,
+                       std::string(name) + ": expected a positive number, got " + std::to_string(value));
+    }
+  };
+  positive(m.young_modulus, "young_modulus");
+  positive(m.density, "density");
+  if (!(m.poisson_ratio >= 0.0 && m.poisson_ratio < 0.5)) {
+    throw InputError(InputErrorKind::bad_value, where,
+                     "poisson_ratio: expected a number in [0, 0.5), got " + std::to_string(m.poisson_ratio));
+  }
+  if (!(m.mass_damping >= 0.0) || !(m.stiffness_damping >= 0.0) || !(m.friction >= 0.0)) {
+    throw InputError(InputErrorKind::bad_value, where, "damping and friction must be non-negative");
+  }
+}
+
+}  // namespace
+
+World::World(WorldSettings settings)
+    : settings_(settings),
+      contact_surface_(std::make_unique<ContactSurfaceResponse>()),
+      penalty_(std::make_unique<PenaltyResponse>()) {}
+
+World::~World() = default;
+
+BodyId World::add_body(BodyDef def) {
+  const std::string where = def.name.empty() ? std::string("body") : "body '" + def.name + "'";
+  if (!def.mesh) throw InputError(InputErrorKind::bad_value, where, "has no mesh");
+  check_material(def.material, where);
+  auto body = std::make_unique<Body>();
+  body->name = def.name;
+  body->mesh = def.mesh;
+  body->material = def.material;
+  body->motion = def.motion;
+  body->pose = def.pose;
+  body->target_pose = def.pose;
+  body->self_collision = def.self_collision;
+  body->collision_group = def.collision_group;
+  body->collision_mask = def.collision_mask;
+  const auto n = static_cast<size_t>(def.mesh->vertex_count());
+  place_rest_mesh(*def.mesh, def.pose, body->positions);
+  body->velocities.assign(n, body->is_kinematic() ? Vec3::Zero() : def.initial_velocity);
+  body->masses = def.mesh->lumped_masses(def.material.density);
+  body->fixed.assign(n, 0);
+  body->applied_forces.assign(n, Vec3::Zero());
+  for (int v : def.fixed_vertices) {
+    if (v < 0 || static_cast<size_t>(v) >= n) {
+      throw InputError(InputErrorKind::index_out_of_range, where,
+                       "fixed vertex " + std::to_string(v) + " is out of range");
+    }
+    body->fixed[static_cast<size_t>(v)] = 1;
+    body->velocities[static_cast<size_t>(v)].setZero();
+  }
+  if (!body->is_kinematic()) {
+    body->model = make_deformation_model(def.model, def.mesh, def.material, def.model_settings);
+  }
+
+  // Reuse a free slot, bumping its generation, or append.
+  size_t slot = slots_.size();
+  for (size_t i = 0; i < slots_.size(); ++i) {
+    if (!slots_[i]) {
+      slot = i;
+      break;
+    }
+  }
+  if (slot == slots_.size()) {
+    slots_.emplace_back();
+    generations_.push_back(0);
+    initial_positions_.emplace_back();
+  }
+  initial_positions_[slot] = body->positions;
+  slots_[slot] = std::move(body);
+  rebuild_body_view();
+  return BodyId{static_cast<std::uint32_t>(slot), generations_[slot]};
+}
+
+void World::remove_body(BodyId id) {
+  if (!is_valid(id)) throw std::out_of_range("World::remove_body: stale or invalid body handle");
+  slots_[id.index].reset();
+  generations_[id.index]++;
+  std::erase_if(disabled_pairs_, [&](const auto& p) {
+    return p.first == static_cast<int>(id.index) || p.second == static_cast<int>(id.index);
+  });
+  rebuild_body_view();
+}
+
+bool World::is_valid(BodyId id) const {
+  return id.index < slots_.size() && slots_[id.index] && generations_[id.index] == id.generation;
+}
+
+Body& World::body(BodyId id) {
+  if (!is_valid(id)) throw std::out_of_range("World::body: stale or invalid body handle");
+  return *slots_[id.index];
+}
+
+const Body& World::body(BodyId id) const {
+  if (!is_valid(id)) throw std::out_of_range("World::body: stale or invalid body handle");
+  return *slots_[id.index];
+}
+
+BodyId World::body_id(int index) const {
+  const auto i = static_cast<size_t>(index);
+  if (i >= slots_.size() || !slots_[i]) throw std::out_of_range("World::body_id: empty slot");
+  return BodyId{static_cast<std::uint32_t>(index), generations_[i]};
+}
+
+void World::disable_collision(BodyId a, BodyId b) {
+  if (!is_valid(a) || !is_valid(b)) throw std::out_of_range("World::disable_collision: invalid handle");
+  disabled_pairs_.emplace_back(static_cast<int>(a.index), static_cast<int>(b.index));
+}
+
+void World::set_kinematic_pose(BodyId id, const Pose& pose) { body(id).target_pose = pose; }
+
+void World::rebuild_body_view() {
+  body_view_.clear();
+  for (auto& slot : slots_) body_view_.push_back(slot.get());
+}
+
+const StepReport& World::step(double dt, StepProfiler* profiler) {
+  report_ = StepReport{};
+  report_.step_index = step_count_;
+  report_.dt = dt;
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    report_.fault = StepFault::diverged;
+    report_.fault_message = "step: dt must be positive and finite";
+    report_.all_finite = false;
+    return report_;
+  }
+
+  // Keep the last good state so a faulty step can be undone.
+  saved_positions_.resize(slots_.size());
+  saved_velocities_.resize(slots_.size());
+  saved_poses_.resize(slots_.size());
+  for (size_t i = 0; i < slots_.size(); ++i) {
+    if (!slots_[i]) continue;
+    saved_positions_[i] = slots_[i]->positions;
+    saved_velocities_[i] = slots_[i]->velocities;
+    saved_poses_[i] = slots_[i]->pose;
+  }
+
+  { StageScope s(profiler, StepStage::integrate); integrate(dt); }
+  { StageScope s(profiler, StepStage::detect); detect(); }
+  { StageScope s(profiler, StepStage::depth); compute_penetration_depth(); }
+  { StageScope s(profiler, StepStage::respond); respond(dt); }
+  { StageScope s(profiler, StepStage::report); report(dt); }
+
+  if (!report_.all_finite) {
+    // Restore the last good state; the caller decides whether to go on at a smaller dt.
+    for (size_t i = 0; i < slots_.size(); ++i) {
+      if (!slots_[i]) continue;
+      slots_[i]->positions = saved_positions_[i];
+      slots_[i]->velocities = saved_velocities_[i];
+      slots_[i]->pose = saved_poses_[i];
+    }
+    if (report_.fault == StepFault::none) report_.fault = StepFault::non_finite;
+    if (report_.fault_message.empty()) report_.fault_message = "non-finite state after step; state restored";
+    return report_;
+  }
+  time_ += dt;
+  report_.time = time_;
+  ++step_count_;
+  return report_;
+}
+
+void World::integrate(double dt) {
+  for (Body* body : body_view_) {
+    if (body == nullptr) continue;
+    if (body->is_kinematic()) {
+      // Prescribed motion: jump to the target pose; velocity is the finite difference over dt.
+      const auto& rest = body->mesh->rest_positions();
+      for (size_t i = 0; i < rest.size(); ++i) {
+        const Vec3 next = body->target_pose.apply(rest[i]);
+        body->velocities[i] = (next - body->positions[i]) / dt;
+        body->positions[i] = next;
+      }
+      body->pose = body->target_pose;
+      continue;
+    }
+    std::vector<Vec3> external(body->positions.size());
+    for (size_t i = 0; i < external.size(); ++i) {
+      external[i] = body->masses[i] * settings_.gravity + body->applied_forces[i];
+    }
+    IntegrationInput in{body->masses, body->fixed, external, dt};
+    const IntegrationResult r = body->model->advance(body->positions, body->velocities, in);
+    report_.solver_iterations_max = std::max(report_.solver_iterations_max, r.solver_iterations);
+    report_.solver_converged = report_.solver_converged && r.converged;
+    report_.substeps_max = std::max(report_.substeps_max, r.substeps);
+  }
+}
+
+void World::detect() {
+  collision_bodies_.clear();
+  for (Body* body : body_view_) {
+    CollisionBody cb;
+    if (body != nullptr) {
+      cb.mesh = body->mesh.get();
+      cb.positions = body->positions;
+      cb.self_collision = body->self_collision;
+      cb.collision_group = body->collision_group;
+      cb.collision_mask = body->collision_mask;
+    } else {
+      cb.active = false;
+    }
+    collision_bodies_.push_back(cb);
+  }
+  filter_ = CollisionFilter::from_bodies(collision_bodies_);
+  // Two kinematic bodies never need contact; neither do excluded pairs.
+  for (size_t a = 0; a < body_view_.size(); ++a) {
+    for (size_t b = a + 1; b < body_view_.size(); ++b) {
+      if (body_view_[a] && body_view_[b] && body_view_[a]->is_kinematic() && body_view_[b]->is_kinematic()) {
+        filter_.set(static_cast<int>(a), static_cast<int>(b), false);
+      }
+    }
+  }
+  for (const auto& [a, b] : disabled_pairs_) filter_.set(a, b, false);
+  colliding_.clear();
+  if (settings_.contact.method == ContactMethod::none && collision_bodies_.empty()) return;
+  spatial_hash_.detect(collision_bodies_, filter_, colliding_);
+  report_.colliding_vertices = static_cast<int>(colliding_.size());
+}
+
+void World::compute_penetration_depth() {
+  contacts_.clear();
+  if (colliding_.empty()) return;
+  penetration_depth_.compute(collision_bodies_, colliding_, contacts_);
+  for (const auto& c : contacts_) {
+    report_.max_penetration_before = std::max(report_.max_penetration_before, c.penetration_depth);
+  }
+}
+
+void World::respond(double dt) {
+  // Every kinematic body gets a reaction entry (zero when out of contact): the haptic force.
+  for (size_t i = 0; i < body_view_.size(); ++i) {
+    if (body_view_[i] && body_view_[i]->is_kinematic()) {
+      report_.reactions.push_back(KinematicReaction{static_cast<int>(i), Vec3::Zero(), Vec3::Zero()});
+    }
+  }
+  if (contacts_.empty()) return;
+  switch (settings_.contact.method) {
+    case ContactMethod::contact_surface:
+      contact_surface_->respond(body_view_, contacts_, dt, settings_.contact, report_);
+      break;
+    case ContactMethod::penalty:
+      penalty_->respond(body_view_, contacts_, dt, settings_.contact, report_);
+      break;
+    case ContactMethod::none:
+      for (const auto& c : contacts_) {
+        report_.max_residual_overlap = std::max(report_.max_residual_overlap, c.penetration_depth);
+      }
+      break;
+  }
+}
+
+bool World::state_is_finite() const {
+  for (const Body* body : body_view_) {
+    if (body == nullptr) continue;
+    for (size_t i = 0; i < body->positions.size(); ++i) {
+      if (!body->positions[i].allFinite() || !body->velocities[i].allFinite()) return false;
+    }
+  }
+  return true;
+}
+
+void World::report(double dt) {
+  report_.all_finite = state_is_finite();
+  for (const auto& r : report_.reactions) {
+    if (!r.force.allFinite() || !r.torque.allFinite()) report_.all_finite = false;
+  }
+  if (!report_.all_finite) return;
+
+  // Work done on the tissue by kinematic bodies over this step: -(reaction) . displacement.
+  for (const auto& r : report_.reactions) {
+    const Body& b = *body_view_[static_cast<size_t>(r.body)];
+    const Vec3 moved = b.pose.translation - saved_poses_[static_cast<size_t>(r.body)].translation;
+    accumulated_work_.work_by_kinematic += -r.force.dot(moved);
+  }
+  report_.body_energy.assign(slots_.size(), EnergyReport{});
+  report_.energy = EnergyReport{};
+  for (size_t i = 0; i < body_view_.size(); ++i) {
+    Body* body = body_view_[i];
+    if (body == nullptr || body->is_kinematic()) continue;
+    EnergyReport& e = report_.body_energy[i];
+    for (size_t v = 0; v < body->positions.size(); ++v) {
+      e.kinetic += 0.5 * body->masses[v] * body->velocities[v].squaredNorm();
+      e.gravitational -= body->masses[v] * settings_.gravity.dot(body->positions[v] - initial_positions_[i][v]);
+    }
+    if (settings_.compute_energy) e.elastic = body->model->elastic_energy(body->positions);
+    report_.energy.kinetic += e.kinetic;
+    report_.energy.elastic += e.elastic;
+    report_.energy.gravitational += e.gravitational;
+  }
+  report_.energy.work_by_kinematic = accumulated_work_.work_by_kinematic;
+  report_.energy.work_by_supports = accumulated_work_.work_by_supports;
+  (void)dt;
+  if (!std::isfinite(report_.energy.total())) report_.all_finite = false;
+}
+
+}  // namespace pliant

@@ -1,0 +1,106 @@
+// World: bodies addressed by handles, gravity, contact settings, and step(dt). The caller owns
+// time. A step is five named stages run in order: integrate, detect, depth, respond, report.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "sim/body.h"
+#include "sim/collision/contact_types.h"
+#include "sim/collision/penetration_depth.h"
+#include "sim/collision/spatial_hash.h"
+#include "sim/contact/contact_response.h"
+#include "sim/contact/contact_settings.h"
+#include "sim/step_report.h"
+
+namespace pliant {
+
+/// A handle to a body: an index plus a generation, checked on use (STYLE.md 4).
+struct BodyId {
+  std::uint32_t index = ~0u;
+  std::uint32_t generation = 0;
+  bool operator==(const BodyId&) const = default;
+};
+
+struct WorldSettings {
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
+  ContactSettings contact;
+  bool compute_energy = true;  ///< elastic energy costs one force evaluation per body per step
+};
+
+class World {
+ public:
+  explicit World(WorldSettings settings = {});
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  /// Adds a body; throws InputError if the definition is invalid (checked here, once).
+  BodyId add_body(BodyDef def);
+  /// Removes a body; its handle (and copies of it) become invalid.
+  void remove_body(BodyId id);
+  bool is_valid(BodyId id) const;
+  /// The body behind a handle; throws std::out_of_range for a stale or invalid handle.
+  Body& body(BodyId id);
+  const Body& body(BodyId id) const;
+  /// Handle of the body in slot `index` (for iterating reports, which use slot indices).
+  BodyId body_id(int index) const;
+  /// Body slots, null where removed; indices match VertexContact::body and reports.
+  std::span<Body* const> bodies() const { return body_view_; }
+
+  /// Excludes a pair from collision (e.g. a fixture and the tissue clamped to it).
+  void disable_collision(BodyId a, BodyId b);
+
+  /// Sets where a kinematic body will be after the next step (its velocity follows from dt).
+  void set_kinematic_pose(BodyId id, const Pose& pose);
+
+  /// Advances the world by dt (s). Never throws on numerical trouble: a NaN or divergence sets
+  /// report.fault, and the world is restored to its state before the step.
+  const StepReport& step(double dt, StepProfiler* profiler = nullptr);
+
+  WorldSettings& settings() { return settings_; }
+  const WorldSettings& settings() const { return settings_; }
+  double time() const { return time_; }
+  long step_count() const { return step_count_; }
+  const StepReport& last_report() const { return report_; }
+  /// Colliding vertices with depth and contact triangle found in the last step (before response).
+  const std::vector<VertexContact>& contacts() const { return contacts_; }
+
+ private:
+  // The stages of step(), in order.
+  void integrate(double dt);
+  void detect();
+  void compute_penetration_depth();
+  void respond(double dt);
+  void report(double dt);
+
+  void rebuild_body_view();
+  bool state_is_finite() const;
+
+  WorldSettings settings_;
+  std::vector<std::unique_ptr<Body>> slots_;
+  std::vector<std::uint32_t> generations_;
+  std::vector<Body*> body_view_;
+  std::vector<std::pair<int, int>> disabled_pairs_;
+  std::vector<std::vector<Vec3>> initial_positions_;  ///< for gravitational energy, per slot
+
+  SpatialHash spatial_hash_;
+  PenetrationDepthSolver penetration_depth_;
+  std::unique_ptr<ContactResponse> contact_surface_;
+  std::unique_ptr<ContactResponse> penalty_;
+
+  std::vector<CollisionBody> collision_bodies_;
+  CollisionFilter filter_;
+  std::vector<VertexInTet> colliding_;
+  std::vector<VertexContact> contacts_;
+  std::vector<std::vector<Vec3>> saved_positions_, saved_velocities_;
+  std::vector<Pose> saved_poses_;
+  StepReport report_;
+  EnergyReport accumulated_work_;
+  double time_ = 0.0;
+  long step_count_ = 0;
+};
+
+}  // namespace pliant
