@@ -16,9 +16,10 @@ class ContactResponse {
   virtual ~ContactResponse() = default;
   /// Resolves `contacts` by changing positions and velocities of the deformable bodies, and fills
   /// the respond fields of `report` (reactions, pair forces, residual overlap, pressure imbalance).
-  /// `bodies` is indexed by body slot; null for empty slots.
+  /// `bodies` is indexed by body slot; null for empty slots. `gravity` (m/s^2) enters the
+  /// quasi-static contact force reported for each vertex.
   virtual void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-                       const ContactSettings& settings, StepReport& report) = 0;
+                       const Vec3& gravity, const ContactSettings& settings, StepReport& report) = 0;
 };
 
 }  // namespace pliant

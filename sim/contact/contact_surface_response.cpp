@@ -1,11 +1,226 @@
+// Stage 4 (paper section 4.4) and the reporting around it. Per step:
+//   1. build the deformation region and displacement vectors s (stage 3, deformation_region.cpp);
+//   2. binary search: every searching vertex starts at x + s/2; after each local evaluation of
+//      internal forces it moves by +-s/2^(k+1) (k = 1..n), backing off where its own pressure
+//      exceeds the other body's (Eq. 2) and going further where it is lower. Immovable vertices
+//      stay; a vertex facing an immovable one takes its whole displacement;
+//   3. optional finishing projection (beyond the paper): Gauss-Seidel passes that put every
+//      colliding vertex exactly into the plane of its displaced contact triangle, splitting each
+//      correction between the two sides in the ratio the search found;
+//   4. velocity update and Coulomb friction (stage 5, contact_velocity_update.cpp);
+//   5. contact forces: on each displaced vertex the quasi-static force that holds it on the
+//      contact surface, c_v = max(0, -(f_v + f_ext,v).s^) s^, plus friction impulses / dt;
+//      reactions on kinematic bodies, per-pair forces, residual overlap, pressure imbalance.
 #include "sim/contact/contact_surface_response.h"
 
-namespace pliant {
+#include <algorithm>
+#include <cmath>
+#include <map>
 
-// Placeholder until issue 5 lands: reports the overlap without resolving it.
-void ContactSurfaceResponse::respond(std::span<Body* const>, std::span<const VertexContact> contacts, double,
-                                     const ContactSettings&, StepReport& report) {
-  for (const auto& c : contacts) report.max_residual_overlap = std::max(report.max_residual_overlap, c.penetration_depth);
+namespace pliant {
+namespace {
+
+// Moves region vertices to x + lambda s.
+void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>& region) {
+  for (const auto& v : region) {
+    if (v.immovable) continue;
+    bodies[static_cast<size_t>(v.body)]->positions[static_cast<size_t>(v.vertex)] =
+        v.rest_of_step + v.fraction * v.displacement;
+  }
+}
+
+// Internal forces at the region's movable vertices (local query), and the elastic restoring
+// pressure along each vertex's own displacement direction.
+void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region) {
+  auto& vertices = region.vertices();
+  for (auto& g : region.groups()) {
+    Body& body = *bodies[static_cast<size_t>(g.body)];
+    body.model->internal_forces_at(body.positions, g.vertices, g.forces);
+    for (size_t i = 0; i < g.vertices.size(); ++i) {
+      auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+      const double len = v.displacement.norm();
+      const double along = len > 0.0 ? -g.forces[i].dot(v.displacement) / len : 0.0;
+      v.pressure = v.area > 0.0 ? std::max(0.0, along) / v.area : 0.0;
+    }
+  }
+}
+
+// Eq. 2 with each partner's force over its own area: the barycentric-weighted mean pressure of
+// the other body's vertices in v's comparison area.
+double partner_pressure(const DeformationRegion& region, const DisplacementVertex& v) {
+  double sum = 0.0, weights = 0.0;
+  for (const auto& p : region.partners_of(v)) {
+    sum += p.weight * region.vertices()[static_cast<size_t>(p.region_vertex)].pressure;
+    weights += p.weight;
+  }
+  return weights > 0.0 ? sum / weights : 0.0;
+}
+
+// Signed penetration of contact c after the response: > 0 where the vertex is still below the
+// plane of its (displaced) contact triangle.
+double contact_overlap(std::span<Body* const> bodies, const VertexContact& c, Vec3* normal_out = nullptr,
+                       Vec3* point_out = nullptr) {
+  const Body& m = *bodies[static_cast<size_t>(c.body)];
+  const Body& n = *bodies[static_cast<size_t>(c.penetrated_body)];
+  const auto& tri = n.mesh->surface_triangles()[static_cast<size_t>(c.contact_triangle)];
+  Vec3 p = Vec3::Zero();
+  for (int k = 0; k < 3; ++k) p += c.contact_barycentric[k] * n.positions[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+  Vec3 normal = n.mesh->triangle_normal(n.positions, c.contact_triangle);
+  if (normal.squaredNorm() == 0.0) normal = c.penetration_direction;
+  if (normal_out != nullptr) *normal_out = normal;
+  if (point_out != nullptr) *point_out = p;
+  return (p - m.positions[static_cast<size_t>(c.vertex)]).dot(normal);
+}
+
+// Beyond the paper: Gauss-Seidel projection of every colliding vertex onto the plane of its
+// displaced contact triangle. The correction is split with generalized inverse masses equal to
+// the share each side took in the search (lambda for the vertex, 1 - lambda for the triangle), so
+// the pressure split found by the binary search is kept; immovable vertices take nothing.
+void finishing_projection(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+                          const DeformationRegion& region, int passes) {
+  const auto& vertices = region.vertices();
+  for (int pass = 0; pass < passes; ++pass) {
+    double worst = 0.0;
+    for (size_t c = 0; c < contacts.size(); ++c) {
+      Vec3 normal;
+      const double overlap = contact_overlap(bodies, contacts[c], &normal);
+      if (overlap <= 0.0) continue;
+      worst = std::max(worst, overlap);
+      const auto& xv = vertices[static_cast<size_t>(region.contact_vertex(c))];
+      const double share_x = xv.immovable ? 0.0 : (xv.rigid_partner ? 1.0 : std::clamp(xv.fraction, 0.05, 0.95));
+      const auto& tri = region.contact_triangle_vertices(c);
+      const Vec3& b = contacts[c].contact_barycentric;
+      double w_tri = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const auto& yv = vertices[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+        if (!yv.immovable) w_tri += b[k] * b[k] * (xv.immovable ? 1.0 : 1.0 - share_x);
+      }
+      const double denom = share_x + w_tri;
+      if (denom <= 0.0) continue;
+      const double step = overlap / denom;
+      if (!xv.immovable) bodies[static_cast<size_t>(xv.body)]->positions[static_cast<size_t>(xv.vertex)] += share_x * step * normal;
+      for (int k = 0; k < 3; ++k) {
+        const auto& yv = vertices[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+        if (yv.immovable) continue;
+        const double wy = xv.immovable ? 1.0 : 1.0 - share_x;
+        bodies[static_cast<size_t>(yv.body)]->positions[static_cast<size_t>(yv.vertex)] -= wy * b[k] * step * normal;
+      }
+    }
+    if (worst == 0.0) break;
+  }
+}
+
+}  // namespace
+
+void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+                                     double dt, const Vec3& gravity, const ContactSettings& settings,
+                                     StepReport& report) {
+  // Stage 3: deformation region and displacement vectors.
+  region_.build(bodies, contacts);
+  auto& vertices = region_.vertices();
+
+  // Stage 4: binary search on the pressure difference.
+  place_region(bodies, vertices);
+  const int iterations = std::max(0, settings.binary_search_iterations);
+  for (int k = 1; k <= iterations; ++k) {
+    evaluate_pressures(bodies, region_);
+    const double step = std::ldexp(1.0, -(k + 1));  // 1 / 2^(k+1)
+    for (auto& v : vertices) {
+      if (v.immovable || v.rigid_partner) continue;
+      const double difference = v.pressure - partner_pressure(region_, v);
+      v.fraction += difference > 0.0 ? -step : step;
+    }
+    place_region(bodies, vertices);
+  }
+  report.binary_search_iterations = iterations;
+
+  if (settings.finishing_projection) finishing_projection(bodies, contacts, region_, 8);
+
+  // Forces at the final contact surface: pressure imbalance and quasi-static contact forces.
+  evaluate_pressures(bodies, region_);
+  double imbalance_sum = 0.0;
+  int imbalance_count = 0;
+  for (const auto& v : vertices) {
+    if (v.immovable || v.rigid_partner || v.partner_count == 0) continue;
+    const double own = v.pressure, other = partner_pressure(region_, v);
+    const double larger = std::max(own, other);
+    if (larger <= 0.0) continue;
+    const double imbalance = std::abs(own - other) / larger;
+    imbalance_sum += imbalance;
+    report.pressure_imbalance_max = std::max(report.pressure_imbalance_max, imbalance);
+    ++imbalance_count;
+  }
+  report.pressure_imbalance_mean = imbalance_count > 0 ? imbalance_sum / imbalance_count : 0.0;
+
+  // Stage 5: velocities and friction.
+  apply_contact_velocity_update(bodies, contacts, dt, settings.friction, impulses_);
+
+  // Contact force on each displaced vertex, credited against its partners' bodies.
+  std::map<std::pair<int, int>, PairContactForce> pairs;
+  auto add_pair_force = [&](int on_body, int from_body, const Vec3& f) {
+    const int a = std::min(on_body, from_body), b = std::max(on_body, from_body);
+    auto& pair = pairs[{a, b}];
+    pair.body_a = a;
+    pair.body_b = b;
+    (on_body == a ? pair.force_on_a : pair.force_on_b) += f;
+  };
+  auto add_reaction = [&](int kinematic_body, const Vec3& point, const Vec3& f_on_kinematic) {
+    for (auto& r : report.reactions) {
+      if (r.body != kinematic_body) continue;
+      const Body& k = *bodies[static_cast<size_t>(kinematic_body)];
+      r.force += f_on_kinematic;
+      r.torque += (point - k.pose.translation).cross(f_on_kinematic);
+    }
+  };
+  for (const auto& g : region_.groups()) {
+    const Body& body = *bodies[static_cast<size_t>(g.body)];
+    for (size_t i = 0; i < g.vertices.size(); ++i) {
+      const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+      const double len = v.displacement.norm();
+      if (len <= 0.0 || v.partner_count == 0) continue;
+      const Vec3 dir = v.displacement / len;
+      const auto vi = static_cast<size_t>(v.vertex);
+      const Vec3 external = body.masses[vi] * gravity + body.applied_forces[vi];
+      const Vec3 contact_force = std::max(0.0, -(g.forces[i] + external).dot(dir)) * dir;
+      report.total_contact_force += contact_force.norm();
+      // Split over the partners' bodies by weight.
+      double weights = 0.0;
+      for (const auto& p : region_.partners_of(v)) weights += p.weight;
+      for (const auto& p : region_.partners_of(v)) {
+        const auto& partner = vertices[static_cast<size_t>(p.region_vertex)];
+        const Vec3 share = (p.weight / weights) * contact_force;
+        add_pair_force(v.body, partner.body, share);
+        const Body& pb = *bodies[static_cast<size_t>(partner.body)];
+        if (pb.is_kinematic()) add_reaction(partner.body, body.positions[vi], -share);
+      }
+    }
+  }
+  // Friction impulses act between the colliding vertex and its contact triangle.
+  for (size_t c = 0; c < contacts.size(); ++c) {
+    const Vec3 f = impulses_[c].friction / dt;
+    if (f.squaredNorm() == 0.0) continue;
+    const auto& contact = contacts[c];
+    add_pair_force(contact.body, contact.penetrated_body, f);
+    add_pair_force(contact.penetrated_body, contact.body, -f);
+    const Body& m = *bodies[static_cast<size_t>(contact.body)];
+    const Body& n = *bodies[static_cast<size_t>(contact.penetrated_body)];
+    if (m.is_kinematic()) add_reaction(contact.body, m.positions[static_cast<size_t>(contact.vertex)], f);
+    if (n.is_kinematic()) add_reaction(contact.penetrated_body, contact.contact_point, -f);
+  }
+  for (auto& [key, pair] : pairs) {
+    pair.contacts = 0;
+    report.pair_forces.push_back(pair);
+  }
+  for (size_t c = 0; c < contacts.size(); ++c) {
+    const auto& contact = contacts[c];
+    for (auto& pair : report.pair_forces) {
+      if ((pair.body_a == contact.body && pair.body_b == contact.penetrated_body) ||
+          (pair.body_b == contact.body && pair.body_a == contact.penetrated_body)) {
+        pair.contacts++;
+      }
+    }
+    report.max_residual_overlap = std::max(report.max_residual_overlap, contact_overlap(bodies, contact));
+  }
 }
 
 }  // namespace pliant

@@ -6,13 +6,19 @@
 #include <vector>
 
 #include "sim/contact/contact_response.h"
+#include "sim/contact/contact_velocity_update.h"
+#include "sim/contact/deformation_region.h"
 
 namespace pliant {
 
 class ContactSurfaceResponse final : public ContactResponse {
  public:
   void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-               const ContactSettings& settings, StepReport& report) override;
+               const Vec3& gravity, const ContactSettings& settings, StepReport& report) override;
+
+ private:
+  DeformationRegion region_;              ///< stage 3 result, reused across steps
+  std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
 };
 
 }  // namespace pliant

@@ -1,0 +1,141 @@
+#include "sim/contact/deformation_region.h"
+
+#include <algorithm>
+
+namespace pliant {
+
+int DeformationRegion::find(int body, int vertex) const {
+  const auto b = static_cast<size_t>(body);
+  if (b >= index_of_.size() || index_of_[b].empty()) return -1;
+  return index_of_[b][static_cast<size_t>(vertex)];
+}
+
+int DeformationRegion::add_vertex(std::span<Body* const> bodies, int body, int vertex) {
+  auto& map = index_of_[static_cast<size_t>(body)];
+  const Body& b = *bodies[static_cast<size_t>(body)];
+  if (map.empty()) map.assign(static_cast<size_t>(b.vertex_count()), -1);
+  int& slot = map[static_cast<size_t>(vertex)];
+  if (slot < 0) {
+    slot = static_cast<int>(vertices_.size());
+    DisplacementVertex dv;
+    dv.body = body;
+    dv.vertex = vertex;
+    dv.rest_of_step = b.positions[static_cast<size_t>(vertex)];
+    dv.immovable = b.is_immovable(vertex);
+    dv.area = b.mesh->vertex_surface_area(b.positions, vertex);
+    vertices_.push_back(dv);
+  }
+  return slot;
+}
+
+void DeformationRegion::build(std::span<Body* const> bodies, std::span<const VertexContact> contacts) {
+  // Forget the previous step's region (only the touched map entries are reset).
+  for (const auto& v : vertices_) index_of_[static_cast<size_t>(v.body)][static_cast<size_t>(v.vertex)] = -1;
+  vertices_.clear();
+  partners_.clear();
+  contact_vertex_.clear();
+  contact_triangle_.clear();
+  index_of_.resize(bodies.size());
+
+  // Eq. 1 numerator and denominator per region vertex, and (owner, partner, weight) triples.
+  std::vector<Vec3> numerator;
+  std::vector<double> denominator;
+  struct Triple {
+    int owner, partner;
+    double weight;
+  };
+  std::vector<Triple> triples;
+  auto grow = [&](int idx) {
+    if (static_cast<size_t>(idx) >= numerator.size()) {
+      numerator.resize(static_cast<size_t>(idx) + 1, Vec3::Zero());
+      denominator.resize(static_cast<size_t>(idx) + 1, 0.0);
+    }
+  };
+
+  for (const auto& c : contacts) {
+    const int x = add_vertex(bodies, c.body, c.vertex);
+    grow(x);
+    vertices_[static_cast<size_t>(x)].colliding = true;
+    const Vec3 d = c.depth_vector();
+    numerator[static_cast<size_t>(x)] += d;
+    denominator[static_cast<size_t>(x)] += 1.0;
+    const Body& n = *bodies[static_cast<size_t>(c.penetrated_body)];
+    const auto& tri = n.mesh->surface_triangles()[static_cast<size_t>(c.contact_triangle)];
+    std::array<int, 3> tri_region{};
+    for (int k = 0; k < 3; ++k) {
+      const int y = add_vertex(bodies, c.penetrated_body, tri[static_cast<size_t>(k)]);
+      grow(y);
+      tri_region[static_cast<size_t>(k)] = y;
+      const double w = c.contact_barycentric[k];
+      numerator[static_cast<size_t>(y)] -= w * d;  // y moves into its own body: -d
+      denominator[static_cast<size_t>(y)] += w;
+      if (w > 0.0) triples.push_back({y, x, w});  // x lies in y's comparison area (Eq. 2)
+    }
+    contact_vertex_.push_back(x);
+    contact_triangle_.push_back(tri_region);
+  }
+
+  // Fallback of section 4.4.3: a colliding vertex with no vertex of the other body in its
+  // comparison area compares against the vertices of its own contact triangle.
+  std::vector<char> has_partner(vertices_.size(), 0);
+  for (const auto& t : triples) has_partner[static_cast<size_t>(t.owner)] = 1;
+  for (size_t c = 0; c < contacts.size(); ++c) {
+    const int x = contact_vertex_[c];
+    if (has_partner[static_cast<size_t>(x)] != 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      const double w = contacts[c].contact_barycentric[k];
+      if (w > 0.0) triples.push_back({x, contact_triangle_[c][static_cast<size_t>(k)], w});
+    }
+  }
+
+  // Partners as compressed rows, in a deterministic order.
+  std::sort(triples.begin(), triples.end(), [](const Triple& a, const Triple& b) {
+    return a.owner != b.owner ? a.owner < b.owner : a.partner < b.partner;
+  });
+  partners_.reserve(triples.size());
+  for (size_t i = 0; i < triples.size(); ++i) {
+    auto& v = vertices_[static_cast<size_t>(triples[i].owner)];
+    if (i == 0 || triples[i - 1].owner != triples[i].owner) v.partner_begin = static_cast<int>(partners_.size());
+    v.partner_count++;
+    partners_.push_back({triples[i].partner, triples[i].weight});
+  }
+
+  for (size_t i = 0; i < vertices_.size(); ++i) {
+    auto& v = vertices_[i];
+    v.displacement = denominator[i] > 0.0 ? Vec3(numerator[i] / denominator[i]) : Vec3::Zero();
+    for (const auto& p : partners_of(v)) {
+      if (vertices_[static_cast<size_t>(p.region_vertex)].immovable) v.rigid_partner = true;
+    }
+    if (v.immovable) {
+      v.fraction = 0.0;
+    } else if (v.rigid_partner) {
+      v.fraction = 1.0;  // the soft side takes the whole displacement
+    } else {
+      v.fraction = 0.5;  // first halving (section 4.4.1)
+    }
+  }
+
+  // Group movable vertices per body for the local force query.
+  for (auto& g : groups_) {
+    g.vertices.clear();
+    g.region_indices.clear();
+  }
+  size_t used = 0;
+  std::vector<int> group_of(bodies.size(), -1);
+  for (size_t i = 0; i < vertices_.size(); ++i) {
+    const auto& v = vertices_[i];
+    if (v.immovable) continue;
+    int& g = group_of[static_cast<size_t>(v.body)];
+    if (g < 0) {
+      g = static_cast<int>(used++);
+      if (groups_.size() < used) groups_.emplace_back();
+      groups_[static_cast<size_t>(g)].body = v.body;
+    }
+    groups_[static_cast<size_t>(g)].vertices.push_back(v.vertex);
+    groups_[static_cast<size_t>(g)].region_indices.push_back(static_cast<int>(i));
+  }
+  groups_.resize(used);
+  for (auto& g : groups_) g.forces.resize(g.vertices.size());
+}
+
+}  // namespace pliant

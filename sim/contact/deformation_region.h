@@ -1,0 +1,83 @@
+// Stage 3 of the contact-surface method (paper section 4.3): the deformation region and the
+// displacement vector of each of its vertices (Eq. 1), plus, for stage 4, each vertex's
+// comparison partners on the other body (the vertices of Eq. 2).
+//
+// The region is the union of the colliding vertices and the vertices of their contact triangles.
+// For a displacement vertex v with own contacts d_j (v collides) and contributions d_i of the
+// other body's colliding vertices whose contact triangle contains v (barycentric weight w_i):
+//   s = (sum_i w_i (-d_i) + sum_j d_j) / (sum_i w_i + n_own)                       (Eq. 1)
+// The sign: d_i points out of v's body, and v must move into it, hence -d_i. The paper's "+1"
+// counts only when v itself collides (n_own = number of its own contacts): then a non-colliding
+// triangle vertex can close the whole gap and the first halving lands exactly in the middle of
+// the intersection, as Fig. 4 says. docs/contact-surface.md gives the reasoning.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "sim/body.h"
+#include "sim/collision/contact_types.h"
+
+namespace pliant {
+
+/// One vertex of the deformation region.
+struct DisplacementVertex {
+  int body = -1;
+  int vertex = -1;
+  Vec3 rest_of_step = Vec3::Zero();  ///< x before the response (m)
+  Vec3 displacement = Vec3::Zero();  ///< s, Eq. 1 (m)
+  double fraction = 0.0;             ///< lambda: the vertex sits at x + lambda s
+  double area = 0.0;                 ///< comparison area share (m^2): 1/3 of adjacent surface triangles
+  double pressure = 0.0;             ///< elastic restoring pressure along s (Pa), from the last evaluation
+  bool immovable = false;            ///< kinematic body or fixed vertex: never displaced
+  bool rigid_partner = false;        ///< touches an immovable vertex: takes the whole displacement
+  bool colliding = false;            ///< the vertex itself penetrates the other body
+  int partner_begin = 0;             ///< first comparison partner in DeformationRegion::partners()
+  int partner_count = 0;
+};
+
+/// A comparison partner of a displacement vertex: a vertex of the other body and its weight.
+struct ComparisonPartner {
+  int region_vertex = -1;  ///< index into DeformationRegion::vertices()
+  double weight = 0.0;     ///< barycentric weight w_i (Eq. 2)
+};
+
+class DeformationRegion {
+ public:
+  /// Builds the region and displacement vectors from the colliding vertices of this step.
+  void build(std::span<Body* const> bodies, std::span<const VertexContact> contacts);
+
+  std::vector<DisplacementVertex>& vertices() { return vertices_; }
+  const std::vector<DisplacementVertex>& vertices() const { return vertices_; }
+  const std::vector<ComparisonPartner>& partners() const { return partners_; }
+  std::span<const ComparisonPartner> partners_of(const DisplacementVertex& v) const {
+    return {partners_.data() + v.partner_begin, static_cast<size_t>(v.partner_count)};
+  }
+  /// Region index of (body, vertex), or -1.
+  int find(int body, int vertex) const;
+  /// Region index of the colliding vertex of contact c, and of its contact triangle's vertices.
+  int contact_vertex(size_t c) const { return contact_vertex_[c]; }
+  const std::array<int, 3>& contact_triangle_vertices(size_t c) const { return contact_triangle_[c]; }
+
+  /// Bodies with movable region vertices, with those vertices' ids and region indices, for the
+  /// local force query.
+  struct BodyGroup {
+    int body = -1;
+    std::vector<int> vertices;        ///< vertex ids in the body
+    std::vector<int> region_indices;  ///< matching DisplacementVertex indices
+    std::vector<Vec3> forces;         ///< scratch for internal_forces_at
+  };
+  std::vector<BodyGroup>& groups() { return groups_; }
+
+ private:
+  int add_vertex(std::span<Body* const> bodies, int body, int vertex);
+
+  std::vector<DisplacementVertex> vertices_;
+  std::vector<ComparisonPartner> partners_;
+  std::vector<std::vector<int>> index_of_;  ///< per body slot: vertex -> region index or -1
+  std::vector<int> contact_vertex_;
+  std::vector<std::array<int, 3>> contact_triangle_;
+  std::vector<BodyGroup> groups_;
+};
+
+}  // namespace pliant
