@@ -1,10 +1,225 @@
 #include "sim/collision/spatial_hash.h"
 
-namespace pliant {
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
 
-// Placeholder until issue 4 lands.
-void SpatialHash::detect(std::span<const CollisionBody>, const CollisionFilter&, std::vector<VertexInTet>& out) {
+#include "sim/collision/tet_barycentric.h"
+
+namespace pliant {
+namespace {
+
+// Cell coordinate of x (m) for cells of inverse size inv_l: floor, clamped so that absurd positions
+// cannot overflow an int (they land in the outermost cell instead).
+int cell_coordinate(double x, double inv_l) {
+  const double c = std::floor(x * inv_l);
+  return static_cast<int>(std::clamp(c, -1.0e9, 1.0e9));
+}
+
+double min_coefficient(const Vec4& b) { return b.minCoeff(); }
+
+}  // namespace
+
+std::uint64_t SpatialHash::hash_cell(int i, int j, int k, std::uint64_t table_size) {
+  // Teschner et al. 2003, eq. (1); conversion of a negative int to uint64 is well defined (mod 2^64).
+  const std::uint64_t h = (static_cast<std::uint64_t>(static_cast<std::int64_t>(i)) * 73856093ull) ^
+                          (static_cast<std::uint64_t>(static_cast<std::int64_t>(j)) * 19349663ull) ^
+                          (static_cast<std::uint64_t>(static_cast<std::int64_t>(k)) * 83492791ull);
+  return h % table_size;
+}
+
+std::uint64_t SpatialHash::next_prime(std::uint64_t n) {
+  if (n <= 2) return 2;
+  if (n % 2 == 0) ++n;
+  for (;; n += 2) {
+    bool prime = true;
+    for (std::uint64_t d = 3; d * d <= n; d += 2) {
+      if (n % d == 0) {
+        prime = false;
+        break;
+      }
+    }
+    if (prime) return n;
+  }
+}
+
+void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionFilter& filter,
+                         std::vector<VertexInTet>& out) {
   out.clear();
+  candidates_.clear();
+  stats_ = SpatialHashStats{};
+  const int body_count = static_cast<int>(bodies.size());
+  assert(filter.body_count() == body_count);
+  auto usable = [&](int b) {
+    const CollisionBody& cb = bodies[static_cast<size_t>(b)];
+    return cb.active && cb.mesh != nullptr && cb.mesh->vertex_count() > 0;
+  };
+
+  // Which bodies take part: a body's vertices are hashed if it may touch some body, its tets are
+  // tested if some body may touch it. Everything else costs nothing below.
+  hashes_vertices_.assign(static_cast<size_t>(body_count), 0);
+  has_tets_.assign(static_cast<size_t>(body_count), 0);
+  for (int a = 0; a < body_count; ++a) {
+    if (!usable(a)) continue;
+    for (int b = 0; b < body_count; ++b) {
+      if (usable(b) && filter.allowed(a, b)) {
+        hashes_vertices_[static_cast<size_t>(a)] = 1;
+        has_tets_[static_cast<size_t>(b)] = 1;
+      }
+    }
+  }
+
+  // Cell size: average edge length over all participating bodies (Teschner 2003, section 4.1).
+  double edge_length_sum = 0.0;
+  double edge_count = 0.0;
+  int vertex_total = 0;
+  for (int a = 0; a < body_count; ++a) {
+    const auto i = static_cast<size_t>(a);
+    if (!hashes_vertices_[i] && !has_tets_[i]) continue;
+    const TetMesh& mesh = *bodies[i].mesh;
+    edge_length_sum += mesh.mean_edge_length() * static_cast<double>(mesh.edges().size());
+    edge_count += static_cast<double>(mesh.edges().size());
+    if (hashes_vertices_[i]) vertex_total += mesh.vertex_count();
+  }
+  if (vertex_total == 0 || edge_count == 0.0 || !(edge_length_sum > 0.0)) return;
+  const double l = options_.cell_size_factor * edge_length_sum / edge_count;
+  const double inv_l = 1.0 / l;
+
+  // Table: prime size, grown only; a new step stamp instead of clearing.
+  const auto wanted =
+      next_prime(static_cast<std::uint64_t>(options_.table_size_factor * static_cast<double>(vertex_total)) + 1);
+  if (table_size_ < wanted) {
+    table_size_ = wanted;
+    bucket_stamp_.assign(wanted, 0u);
+    bucket_head_.assign(wanted, -1);
+    stamp_ = 0;
+  }
+  const std::uint64_t n = table_size_;
+  if (++stamp_ == 0) {  // wrapped around after 2^32 steps: clear once
+    std::fill(bucket_stamp_.begin(), bucket_stamp_.end(), 0u);
+    stamp_ = 1;
+  }
+  stats_.hashed_vertices = vertex_total;
+  stats_.table_size = static_cast<int>(n);
+  stats_.cell_size = l;
+
+  // Pass 1: hash every vertex of the bodies that may touch something.
+  hashed_.clear();
+  vertex_bounds_.assign(static_cast<size_t>(body_count), Aabb{});
+  for (int a = 0; a < body_count; ++a) {
+    if (!hashes_vertices_[static_cast<size_t>(a)]) continue;
+    const CollisionBody& cb = bodies[static_cast<size_t>(a)];
+    Aabb& bounds = vertex_bounds_[static_cast<size_t>(a)];
+    const int nv = cb.mesh->vertex_count();
+    for (int v = 0; v < nv; ++v) {
+      const Vec3& x = cb.positions[static_cast<size_t>(v)];
+      bounds.extend(x);
+      HashedVertex hv{x, {cell_coordinate(x.x(), inv_l), cell_coordinate(x.y(), inv_l),
+                          cell_coordinate(x.z(), inv_l)}, a, v, -1};
+      const auto h = static_cast<size_t>(hash_cell(hv.cell[0], hv.cell[1], hv.cell[2], n));
+      if (bucket_stamp_[h] != stamp_) {
+        bucket_stamp_[h] = stamp_;
+        bucket_head_[h] = -1;
+      }
+      hv.next = bucket_head_[h];
+      bucket_head_[h] = static_cast<int>(hashed_.size());
+      hashed_.push_back(hv);
+    }
+  }
+
+  // Pass 2: for each tet of a body that may be penetrated, visit the cells of its AABB.
+  for (int b = 0; b < body_count; ++b) {
+    if (!has_tets_[static_cast<size_t>(b)]) continue;
+    const CollisionBody& cb = bodies[static_cast<size_t>(b)];
+    // Bounds of all vertices that may enter this body: tets outside them need no lookup.
+    Aabb partners;
+    for (int a = 0; a < body_count; ++a) {
+      if (hashes_vertices_[static_cast<size_t>(a)] && filter.allowed(a, b)) {
+        const Aabb& va = vertex_bounds_[static_cast<size_t>(a)];
+        partners.extend(va.min);
+        partners.extend(va.max);
+      }
+    }
+    const auto& tets = cb.mesh->tets();
+    const int nt = static_cast<int>(tets.size());
+    for (int t = 0; t < nt; ++t) {
+      const TetIndices& tet = tets[static_cast<size_t>(t)];
+      const Vec3* x[4];
+      Aabb box;
+      for (int k = 0; k < 4; ++k) {
+        x[k] = &cb.positions[static_cast<size_t>(tet[static_cast<size_t>(k)])];
+        box.extend(*x[k]);
+      }
+      if (!box.overlaps(partners)) continue;
+      ++stats_.tets_visited;
+      bool frame_ready = false;
+      TetBarycentricFrame frame;
+
+      // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
+      auto test = [&](const HashedVertex& hv) {
+        if (!filter.allowed(hv.body, b)) return;
+        if (hv.body == b && (hv.vertex == tet[0] || hv.vertex == tet[1] || hv.vertex == tet[2] ||
+                             hv.vertex == tet[3])) {
+          return;
+        }
+        if ((hv.x.array() < box.min.array()).any() || (hv.x.array() > box.max.array()).any()) return;
+        if (!frame_ready) {
+          frame = TetBarycentricFrame::of(*x[0], *x[1], *x[2], *x[3]);
+          frame_ready = true;
+        }
+        ++stats_.inside_tests;
+        Vec4 bary;
+        if (frame.contains(hv.x, &bary)) {
+          candidates_.push_back(VertexInTet{hv.body, hv.vertex, b, t, bary});
+        }
+      };
+
+      const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
+      const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
+      const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
+      const double cells = (static_cast<double>(i1) - i0 + 1) * (static_cast<double>(j1) - j0 + 1) *
+                           (static_cast<double>(k1) - k0 + 1);
+      if (cells > static_cast<double>(hashed_.size())) {
+        // A tet far larger than a cell (badly stretched): scanning all vertices is cheaper.
+        for (const HashedVertex& hv : hashed_) test(hv);
+        continue;
+      }
+      for (int i = i0; i <= i1; ++i) {
+        for (int j = j0; j <= j1; ++j) {
+          for (int k = k0; k <= k1; ++k) {
+            ++stats_.cells_visited;
+            const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
+            if (bucket_stamp_[h] != stamp_) continue;
+            for (int e = bucket_head_[h]; e >= 0; e = hashed_[static_cast<size_t>(e)].next) {
+              const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
+              // Another cell hashed to this bucket: its vertices are found (or not) from that cell.
+              if (hv.cell[0] != i || hv.cell[1] != j || hv.cell[2] != k) continue;
+              test(hv);
+            }
+          }
+        }
+      }
+    }
+  }
+  stats_.candidates_found = static_cast<long long>(candidates_.size());
+
+  // Deterministic order; per (vertex, penetrated body) keep the tet it is deepest in.
+  std::sort(candidates_.begin(), candidates_.end(), [](const VertexInTet& p, const VertexInTet& q) {
+    if (p.body != q.body) return p.body < q.body;
+    if (p.vertex != q.vertex) return p.vertex < q.vertex;
+    if (p.penetrated_body != q.penetrated_body) return p.penetrated_body < q.penetrated_body;
+    const double mp = min_coefficient(p.barycentric), mq = min_coefficient(q.barycentric);
+    if (mp != mq) return mp > mq;
+    return p.tet < q.tet;
+  });
+  for (const VertexInTet& c : candidates_) {
+    if (!out.empty() && out.back().body == c.body && out.back().vertex == c.vertex &&
+        out.back().penetrated_body == c.penetrated_body) {
+      continue;
+    }
+    out.push_back(c);
+  }
 }
 
 }  // namespace pliant

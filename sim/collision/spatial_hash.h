@@ -1,6 +1,20 @@
-// Stage 1: optimized spatial hashing (Teschner et al. 2003; algorithms.md section 1).
+// Stage 1: optimized spatial hashing (Teschner et al., VMV 2003; algorithms.md section 1).
+//
+// Design note. All bodies share one hash table of prime size n (next prime above 3x the hashed
+// vertex count, grown but never shrunk so the allocation is reused). Buckets carry a time stamp
+// instead of being cleared: a bucket whose stamp is not the current step's is empty. Each bucket is
+// a singly linked list threaded through a flat array of hashed vertices, each of which keeps a copy
+// of its position and its integer cell, so pass 2 reads one contiguous record per candidate and
+// drops hash collisions from other cells with three integer compares. Pass 1 hashes the vertices
+// of every body that may touch some body (CollisionFilter); pass 2 walks the cells covered by each
+// tet's AABB for every body that may be penetrated, skips the tet's own vertices, tests the AABB,
+// then the barycentric coordinates. Candidates are sorted so the output is ordered by
+// (body, vertex, penetrated body) and one tet per (vertex, penetrated body) is kept: the one with
+// the largest minimum barycentric coordinate (the tet the vertex is deepest in), ties by index.
+// Bodies filtered out cost nothing; no allocation happens once the buffers have grown.
 #pragma once
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -8,13 +22,68 @@
 
 namespace pliant {
 
+/// Tuning of the spatial hash; the defaults follow Teschner et al. 2003.
+struct SpatialHashOptions {
+  /// Cell size as a multiple of the average edge length (paper: optimum near 1).
+  double cell_size_factor = 1.0;
+  /// Table size: the next prime above this multiple of the hashed vertex count.
+  double table_size_factor = 3.0;
+};
+
+/// What the last detect() did (for benchmarks and diagnostics).
+struct SpatialHashStats {
+  int hashed_vertices = 0;   ///< vertices inserted in pass 1
+  int table_size = 0;        ///< prime number of buckets
+  double cell_size = 0.0;    ///< edge of a cubic cell (m)
+  long long tets_visited = 0;       ///< tets whose cells were looked up in pass 2
+  long long cells_visited = 0;      ///< cell lookups in pass 2
+  long long inside_tests = 0;       ///< barycentric tests performed
+  long long candidates_found = 0;   ///< (vertex, tet) pairs found inside, before de-duplication
+};
+
 class SpatialHash {
  public:
+  SpatialHash() = default;
+  /// A hash with non-default tuning.
+  explicit SpatialHash(const SpatialHashOptions& options) : options_(options) {}
+
   /// Finds every vertex lying inside a tetrahedron of a body it may collide with (per `filter`),
   /// including the same body when self-collision is allowed (a tet's own vertices excluded).
   /// `out` is cleared first; results are ordered by (body, vertex) so the step is deterministic.
   void detect(std::span<const CollisionBody> bodies, const CollisionFilter& filter,
               std::vector<VertexInTet>& out);
+
+  /// Counters of the last detect().
+  const SpatialHashStats& stats() const { return stats_; }
+  /// The tuning in use.
+  const SpatialHashOptions& options() const { return options_; }
+
+  /// Teschner's hash of cell (i, j, k) into [0, table_size), products in unsigned 64-bit arithmetic.
+  static std::uint64_t hash_cell(int i, int j, int k, std::uint64_t table_size);
+  /// Smallest prime >= n (n >= 2).
+  static std::uint64_t next_prime(std::uint64_t n);
+
+ private:
+  /// One vertex of pass 1: its position, cell and the next vertex in the same bucket.
+  struct HashedVertex {
+    Vec3 x;
+    int cell[3];
+    int body;
+    int vertex;
+    int next;  ///< index of the next hashed vertex in this bucket, -1 at the end
+  };
+
+  SpatialHashOptions options_;
+  SpatialHashStats stats_;
+  std::uint32_t stamp_ = 0;
+  std::uint64_t table_size_ = 0;  ///< current prime table size; grows, never shrinks
+  std::vector<std::uint32_t> bucket_stamp_;
+  std::vector<int> bucket_head_;
+  std::vector<HashedVertex> hashed_;
+  std::vector<char> hashes_vertices_;   ///< per body: its vertices go into the table
+  std::vector<char> has_tets_;          ///< per body: its tets are tested in pass 2
+  std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its hashed vertices
+  std::vector<VertexInTet> candidates_;
 };
 
 }  // namespace pliant

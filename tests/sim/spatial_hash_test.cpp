@@ -1,0 +1,292 @@
+// Spatial hash (Teschner et al. 2003) against a brute-force oracle: every vertex against every tet
+// of every allowed body by the same barycentric test, on many random overlapping poses of box
+// meshes of different resolutions, including self-collision of folded meshes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "sim/collision/spatial_hash.h"
+#include "sim/collision/tet_barycentric.h"
+#include "sim/mesh/box_mesh.h"
+
+namespace pliant {
+namespace {
+
+// Oracle: all vertex-tet pairs; per (vertex, penetrated body) the tet with the largest minimum
+// barycentric coordinate, ties by the smaller tet index (the documented choice).
+std::vector<VertexInTet> brute_force(std::span<const CollisionBody> bodies, const CollisionFilter& filter) {
+  std::vector<VertexInTet> out;
+  const int n = static_cast<int>(bodies.size());
+  for (int a = 0; a < n; ++a) {
+    const auto& ba = bodies[static_cast<size_t>(a)];
+    if (!ba.active || ba.mesh == nullptr) continue;
+    for (int v = 0; v < ba.mesh->vertex_count(); ++v) {
+      const Vec3& p = ba.positions[static_cast<size_t>(v)];
+      for (int b = 0; b < n; ++b) {
+        const auto& bb = bodies[static_cast<size_t>(b)];
+        if (!bb.active || bb.mesh == nullptr || !filter.allowed(a, b)) continue;
+        VertexInTet best;
+        double best_min = -1.0;
+        for (int t = 0; t < bb.mesh->tet_count(); ++t) {
+          const auto& tet = bb.mesh->tets()[static_cast<size_t>(t)];
+          if (a == b && std::find(tet.begin(), tet.end(), v) != tet.end()) continue;
+          const auto& x = bb.positions;
+          const auto f = TetBarycentricFrame::of(x[static_cast<size_t>(tet[0])], x[static_cast<size_t>(tet[1])],
+                                                 x[static_cast<size_t>(tet[2])], x[static_cast<size_t>(tet[3])]);
+          Vec4 bary;
+          if (f.contains(p, &bary) && bary.minCoeff() > best_min) {
+            best_min = bary.minCoeff();
+            best = VertexInTet{a, v, b, t, bary};
+          }
+        }
+        if (best.tet >= 0) out.push_back(best);
+      }
+    }
+  }
+  return out;
+}
+
+Quat random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  Quat q(g(rng), g(rng), g(rng), g(rng));
+  q.normalize();
+  return q;
+}
+
+std::vector<Vec3> posed(const TetMesh& mesh, const Quat& r, const Vec3& t) {
+  std::vector<Vec3> x;
+  for (const Vec3& p : mesh.rest_positions()) x.push_back(r * p + t);
+  return x;
+}
+
+// Folds a bar along x onto itself: the part x > 0 turns about the z axis by up to `angle` (rad)
+// over a hinge of width w, so the far end lies across the near end.
+std::vector<Vec3> folded(const TetMesh& mesh, double angle, double w) {
+  std::vector<Vec3> x;
+  for (const Vec3& p : mesh.rest_positions()) {
+    const double s = std::clamp(p.x() / w, 0.0, 1.0);
+    const double phi = angle * s;
+    const Vec3 pivot(0.0, 0.0, 0.0);
+    x.push_back(pivot + Eigen::AngleAxisd(phi, Vec3::UnitZ()) * (p - pivot));
+  }
+  return x;
+}
+
+void expect_same(const std::vector<VertexInTet>& hash, const std::vector<VertexInTet>& brute,
+                 std::span<const CollisionBody> bodies) {
+  if (hash.size() != brute.size()) {
+    for (const auto& b : brute) {
+      bool f = false;
+      for (const auto& h : hash) f = f || (h.body == b.body && h.vertex == b.vertex && h.penetrated_body == b.penetrated_body);
+      if (!f) {
+        const auto& p = bodies[static_cast<size_t>(b.body)].positions[static_cast<size_t>(b.vertex)];
+        ADD_FAILURE() << "missed " << b.body << " " << b.vertex << " in " << b.penetrated_body << " tet " << b.tet
+                      << " p " << p.transpose() << " bary " << b.barycentric.transpose();
+      }
+    }
+  }
+  ASSERT_EQ(hash.size(), brute.size());
+  for (size_t i = 0; i < hash.size(); ++i) {
+    const auto& h = hash[i];
+    const auto& b = brute[i];
+    ASSERT_EQ(h.body, b.body) << i;
+    ASSERT_EQ(h.vertex, b.vertex) << i;
+    ASSERT_EQ(h.penetrated_body, b.penetrated_body) << i;
+    EXPECT_EQ(h.tet, b.tet) << i;
+    EXPECT_EQ(h.barycentric, b.barycentric) << i;
+    // Second method for the coordinates themselves: an LU solve of A b = p - x0.
+    const auto& pb = bodies[static_cast<size_t>(h.penetrated_body)];
+    const auto& tet = pb.mesh->tets()[static_cast<size_t>(h.tet)];
+    const auto& x = pb.positions;
+    Mat3 A;
+    A << x[static_cast<size_t>(tet[1])] - x[static_cast<size_t>(tet[0])],
+        x[static_cast<size_t>(tet[2])] - x[static_cast<size_t>(tet[0])],
+        x[static_cast<size_t>(tet[3])] - x[static_cast<size_t>(tet[0])];
+    const Vec3 p = bodies[static_cast<size_t>(h.body)].positions[static_cast<size_t>(h.vertex)];
+    const Vec3 sol = A.partialPivLu().solve(p - x[static_cast<size_t>(tet[0])]);
+    EXPECT_NEAR(h.barycentric[1], sol[0], 1e-9);
+    EXPECT_NEAR(h.barycentric[2], sol[1], 1e-9);
+    EXPECT_NEAR(h.barycentric[3], sol[2], 1e-9);
+    EXPECT_GE(h.barycentric.minCoeff(), 0.0);
+  }
+}
+
+TEST(SpatialHash, HashIsFloorBasedAndInRange) {
+  const std::uint64_t n = SpatialHash::next_prime(3001);
+  EXPECT_EQ(n, 3001u);
+  EXPECT_EQ(SpatialHash::next_prime(3002), 3011u);
+  EXPECT_EQ(SpatialHash::next_prime(1), 2u);
+  for (int i = -5; i <= 5; ++i) {
+    for (int j = -5; j <= 5; ++j) {
+      EXPECT_LT(SpatialHash::hash_cell(i, j, -i * j, n), n);
+    }
+  }
+  // Extreme cells do not overflow (unsigned arithmetic) and stay in range.
+  EXPECT_LT(SpatialHash::hash_cell(std::numeric_limits<int>::min(), std::numeric_limits<int>::max(), -1, n), n);
+  EXPECT_EQ(SpatialHash::hash_cell(0, 0, 0, n), 0u);
+}
+
+TEST(SpatialHash, MatchesBruteForceOnRandomPoses) {
+  const std::vector<TetMeshPtr> meshes = {
+      make_box_mesh({Vec3(0.4, 0.3, 0.2), 2, 2, 2}),
+      make_box_mesh({Vec3(0.5, 0.2, 0.3), 5, 2, 3}),
+      make_box_mesh({Vec3(0.3, 0.3, 0.3), 6, 6, 6}),
+      make_box_mesh({Vec3(0.6, 0.1, 0.1), 12, 2, 2}),
+      make_box_mesh({Vec3(0.2, 0.25, 0.15), 1, 1, 1}),
+  };
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  std::uniform_int_distribution<int> pick(0, static_cast<int>(meshes.size()) - 1);
+  std::bernoulli_distribution coin(0.8);
+  SpatialHash hash;  // reused across trials: stamps and buffers carry over
+  long long total = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const int body_count = 2 + trial % 4;
+    std::vector<std::vector<Vec3>> x;
+    std::vector<CollisionBody> bodies;
+    for (int b = 0; b < body_count; ++b) {
+      const auto& mesh = meshes[static_cast<size_t>(pick(rng))];
+      x.push_back(posed(*mesh, random_rotation(rng), Vec3(u(rng), u(rng), u(rng))));
+    }
+    for (int b = 0; b < body_count; ++b) {
+      CollisionBody cb;
+      cb.mesh = meshes[static_cast<size_t>(trial + b) % meshes.size()].get();
+      bodies.push_back(cb);
+    }
+    // Re-pose with the mesh actually used by each body.
+    for (int b = 0; b < body_count; ++b) {
+      x[static_cast<size_t>(b)] = posed(*bodies[static_cast<size_t>(b)].mesh, random_rotation(rng),
+                                        Vec3(u(rng), u(rng), u(rng)));
+      bodies[static_cast<size_t>(b)].positions = x[static_cast<size_t>(b)];
+      bodies[static_cast<size_t>(b)].active = trial % 7 != 3 || b != 0;
+    }
+    CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+    for (int a = 0; a < body_count; ++a) {
+      for (int b = a + 1; b < body_count; ++b) {
+        if (bodies[static_cast<size_t>(a)].active && bodies[static_cast<size_t>(b)].active) {
+          filter.set(a, b, coin(rng));
+        }
+      }
+    }
+    std::vector<VertexInTet> found;
+    hash.detect(bodies, filter, found);
+    const auto oracle = brute_force(bodies, filter);
+    SCOPED_TRACE(trial);
+    expect_same(found, oracle, bodies);
+    total += static_cast<long long>(oracle.size());
+  }
+  EXPECT_GT(total, 1000);  // the poses really overlap
+}
+
+TEST(SpatialHash, SelfCollisionOfFoldedBarsMatchesBruteForce) {
+  SpatialHash hash;
+  for (const auto& [nx, ny, nz] : {std::array{16, 4, 2}, std::array{24, 6, 2}, std::array{10, 3, 1}}) {
+    const auto mesh = make_box_mesh({Vec3(1.0, 0.3, 0.1), nx, ny, nz});
+    for (double angle : {0.9 * std::numbers::pi, 0.97 * std::numbers::pi, 1.04 * std::numbers::pi}) {
+      const auto x = folded(*mesh, angle, 0.15);
+      std::vector<CollisionBody> bodies(1);
+      bodies[0].mesh = mesh.get();
+      bodies[0].positions = x;
+      bodies[0].self_collision = true;
+      const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+      ASSERT_TRUE(filter.allowed(0, 0));
+      std::vector<VertexInTet> found;
+      hash.detect(bodies, filter, found);
+      const auto oracle = brute_force(bodies, filter);
+      EXPECT_GT(oracle.size(), 10u) << "the fold must overlap";
+      expect_same(found, oracle, bodies);
+
+      // Without self-collision the same pose finds nothing.
+      bodies[0].self_collision = false;
+      hash.detect(bodies, CollisionFilter::from_bodies(bodies), found);
+      EXPECT_TRUE(found.empty());
+    }
+  }
+}
+
+TEST(SpatialHash, UndeformedMeshHasNoSelfCollision) {
+  const auto mesh = make_box_mesh({Vec3(0.3, 0.2, 0.1), 6, 4, 3});
+  std::vector<CollisionBody> bodies(1);
+  bodies[0].mesh = mesh.get();
+  bodies[0].positions = mesh->rest_positions();
+  bodies[0].self_collision = true;
+  SpatialHash hash;
+  std::vector<VertexInTet> found;
+  hash.detect(bodies, CollisionFilter::from_bodies(bodies), found);
+  EXPECT_TRUE(found.empty());
+}
+
+TEST(SpatialHash, VertexInTwoBodiesGetsOneEntryPerBodyAndOrderIsDeterministic) {
+  const auto small = make_box_mesh({Vec3(0.1, 0.1, 0.1), 2, 2, 2});
+  const auto big = make_box_mesh({Vec3(1.0, 1.0, 1.0), 3, 3, 3});
+  // Two big overlapping blocks; the small box sits in their overlap.
+  const auto xa = posed(*big, Quat::Identity(), Vec3(-0.3, 0.0, 0.0));
+  const auto xb = posed(*big, Quat(Eigen::AngleAxisd(0.3, Vec3::UnitZ())), Vec3(0.3, 0.01, 0.02));
+  const auto xs = posed(*small, Quat(Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized())), Vec3(0.01, 0.02, 0.03));
+  std::vector<CollisionBody> bodies(3);
+  bodies[0].mesh = small.get();
+  bodies[0].positions = xs;
+  bodies[1].mesh = big.get();
+  bodies[1].positions = xa;
+  bodies[2].mesh = big.get();
+  bodies[2].positions = xb;
+  CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  filter.set(1, 2, false);
+  SpatialHash hash;
+  std::vector<VertexInTet> found;
+  hash.detect(bodies, filter, found);
+  int small_entries = 0;
+  for (const auto& c : found) {
+    if (c.body == 0) ++small_entries;
+  }
+  EXPECT_EQ(small_entries, 2 * small->vertex_count());
+  for (size_t i = 1; i < found.size(); ++i) {
+    const auto& p = found[i - 1];
+    const auto& q = found[i];
+    EXPECT_TRUE(std::tie(p.body, p.vertex, p.penetrated_body) < std::tie(q.body, q.vertex, q.penetrated_body));
+  }
+  // Same input, same output; the output buffer is reused without reallocating.
+  const auto first = found;
+  const auto* data = found.data();
+  hash.detect(bodies, filter, found);
+  EXPECT_EQ(found.data(), data);
+  ASSERT_EQ(found.size(), first.size());
+  for (size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(found[i].tet, first[i].tet);
+    EXPECT_EQ(found[i].barycentric, first[i].barycentric);
+  }
+  expect_same(found, brute_force(bodies, filter), bodies);
+}
+
+TEST(SpatialHash, FilteredAndInactiveBodiesAreNotHashed) {
+  const auto mesh = make_box_mesh({Vec3(0.3, 0.3, 0.3), 3, 3, 3});
+  const auto x0 = posed(*mesh, Quat::Identity(), Vec3::Zero());
+  const auto x1 = posed(*mesh, Quat::Identity(), Vec3(0.1, 0.05, 0.0));
+  std::vector<CollisionBody> bodies(3);
+  for (auto& b : bodies) b.mesh = mesh.get();
+  bodies[0].positions = x0;
+  bodies[1].positions = x1;
+  bodies[2].positions = x1;
+  bodies[2].active = false;
+  CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  filter.set(0, 1, false);
+  SpatialHash hash;
+  std::vector<VertexInTet> found;
+  hash.detect(bodies, filter, found);
+  EXPECT_TRUE(found.empty());
+  EXPECT_EQ(hash.stats().hashed_vertices, 0);
+  EXPECT_EQ(hash.stats().tets_visited, 0);
+  bodies[2].active = true;  // body 2 now overlaps 0 and 1 (positions of 1)
+  filter = CollisionFilter::from_bodies(bodies);
+  filter.set(0, 1, false);
+  filter.set(1, 2, false);
+  hash.detect(bodies, filter, found);
+  EXPECT_EQ(hash.stats().hashed_vertices, 2 * mesh->vertex_count());
+  expect_same(found, brute_force(bodies, filter), bodies);
+  EXPECT_FALSE(found.empty());
+}
+
+}  // namespace
+}  // namespace pliant
