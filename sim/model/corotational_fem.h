@@ -1,0 +1,84 @@
+// Corotational linear FEM (Mueller & Gross, "Interactive Virtual Materials", GI 2004) with linearly
+// implicit Euler and conjugate gradients. Design note:
+// - Energy: the corotated linear energy per tet, V (mu |F - R|^2 + lambda/2 tr(R^T F - I)^2) with R
+//   the rotation of F (sim/model/rotation_extraction.h). Its gradient is exactly
+//   P = 2 mu (F - R) + lambda tr(R^T F - I) R (the dR term vanishes because R^T F is symmetric at the
+//   extracted R), and f_e = -V P Dm^-T equals Mueller & Gross' f_e = -R K_e (R^T x_e - X_e).
+// - Step (Baraff & Witkin 1998 form, Mueller & Gross sec. 5): with K' = sum R K R^T frozen at x_n,
+//   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
+//   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
+//   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
+// - K' is applied matrix-free per tet: with r_j = R g_j (rotated shape gradients) and
+//   A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i. An assembled 3x3-block
+//   sparse K' is kept as an option for the benchmark (docs/deformation-models.md has the numbers).
+#pragma once
+
+#include <vector>
+
+#include "sim/model/deformation_model.h"
+
+namespace pliant {
+
+/// How the implicit solver applies K'.
+enum class StiffnessProduct {
+  matrix_free,  ///< element by element from rotated shape gradients (default: faster, measured)
+  assembled,    ///< 3x3-block sparse matrix assembled once per step
+};
+
+class CorotationalFem final : public DeformationModel {
+ public:
+  /// Precomputes inverse rest shapes; `product` selects how K' is applied in CG.
+  CorotationalFem(TetMeshPtr mesh, const Material& material, const ModelSettings& settings,
+                  StiffnessProduct product = StiffnessProduct::matrix_free);
+
+  ModelKind kind() const override { return ModelKind::corotational_fem; }
+  void internal_forces(std::span<const Vec3> x, std::span<Vec3> f) override;
+  void internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices, std::span<Vec3> f) override;
+  double elastic_energy(std::span<const Vec3> x) override;
+  IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
+  void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
+  ModelAccuracy accuracy() const override { return accuracy_; }
+
+  /// Updates element rotations at x and their rotated shape gradients (the K' of the next solve).
+  void update_rotations(std::span<const Vec3> x);
+  /// y = K' p with the rotations of the last update_rotations (fixed vertices not projected).
+  void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// Element rotation (from the last full evaluation at some x).
+  Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
+  /// Deformation gradient F = Ds Dm^-1 of a tet at positions x.
+  Mat3 deformation_gradient(std::span<const Vec3> x, int tet) const;
+  const TetMesh& mesh() const { return *mesh_; }
+
+ private:
+  Mat3 first_piola(const Mat3& F, const Mat3& R) const;
+  void assemble_stiffness();
+  void multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
+                       std::span<const double> masses, std::span<const char> fixed) const;
+
+  TetMeshPtr mesh_;
+  double mu_ = 0.0;      ///< Lame mu (Pa)
+  double lambda_ = 0.0;  ///< Lame lambda (Pa)
+  double alpha_ = 0.0;   ///< Rayleigh mass damping (1/s)
+  double beta_ = 0.0;    ///< Rayleigh stiffness damping (s)
+  ModelAccuracy accuracy_;
+  StiffnessProduct product_;
+
+  // Constant per tet.
+  std::vector<Mat3> rest_shape_inverse_;  ///< Dm^-1
+  std::vector<double> volume_;            ///< rest volume V (m^3)
+
+  // Changing per tet (warm starts and the frozen linearisation).
+  std::vector<Quat> rotations_;
+  std::vector<Mat3> rotated_gradients_;  ///< columns V-free r_1..r_3 = R Dm^-T columns
+
+  // Assembled K' (3x3 blocks, CSR by vertex rows, diagonal included).
+  std::vector<int> block_row_offsets_, block_cols_;
+  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
+  std::vector<Mat3> blocks_;
+
+  // Per-step scratch, sized once.
+  std::vector<Vec3> forces_, rhs_, dv_, r_, z_, p_, q_, kv_;
+  std::vector<Mat3> preconditioner_;
+};
+
+}  // namespace pliant

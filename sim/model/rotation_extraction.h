@@ -1,0 +1,34 @@
+// Rotation of a deformation gradient by the iteration of Mueller, Bender, Chentanez & Macklin,
+// "A Robust Method to Extract the Rotational Part of Deformations" (MIG 2016), eq. 9:
+//   omega = sum_i r_i x a_i / (|sum_i r_i . a_i| + eps),   R <- exp(omega) R,
+// with r_i, a_i the columns of R and F. It climbs tr(R^T F) over rotations, so it converges to the
+// rotation U diag(1, 1, det(U V^T)) V^T of the SVD F = U S V^T: the polar rotation for det F > 0
+// and the reflection-fixed one for inverted elements (the smallest singular value changes sign).
+// For F = 0 (a collapsed element) omega is zero and R keeps its warm start. At convergence R^T F
+// is symmetric, which is what makes the corotated force the exact gradient of the energy.
+#pragma once
+
+#include <cmath>
+
+#include "sim/math_types.h"
+
+namespace pliant {
+
+/// Refines q (warm start, unit) towards the rotation of F; stops when the update angle (rad) is
+/// below `tolerance` or after `max_iterations`. Returns the iterations used.
+inline int extract_rotation(const Mat3& F, Quat& q, int max_iterations = 30, double tolerance = 1e-13) {
+  int it = 0;
+  for (; it < max_iterations; ++it) {
+    const Mat3 R = q.toRotationMatrix();
+    const Vec3 omega_num = R.col(0).cross(F.col(0)) + R.col(1).cross(F.col(1)) + R.col(2).cross(F.col(2));
+    const double denom = std::abs(R.col(0).dot(F.col(0)) + R.col(1).dot(F.col(1)) + R.col(2).dot(F.col(2))) + 1e-9;
+    const Vec3 omega = omega_num / denom;
+    const double angle = omega.norm();
+    if (!(angle >= tolerance)) break;  // also stops on NaN input
+    q = Quat(Eigen::AngleAxisd(angle, omega / angle)) * q;
+    q.normalize();
+  }
+  return it;
+}
+
+}  // namespace pliant
