@@ -3,12 +3,10 @@
 #include "sim/io/vtu_writer.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 
 #include "sim/input_error.h"
+#include "sim/io/atomic_file.h"
 
 namespace pliant {
 namespace {
@@ -20,24 +18,6 @@ int points_per_cell(VtuCellType type) {
     case VtuCellType::tetra: return 4;
   }
   return 4;
-}
-
-// Writes `text` to path atomically (temp file + rename).
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(InputErrorKind::io, path, "cannot open '" + tmp + "' for writing");
-    out << text;
-    out.flush();
-    if (!out) throw InputError(InputErrorKind::io, path, "write failed");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw InputError(InputErrorKind::io, path, "cannot rename temporary file into place");
-  }
 }
 
 // XML attribute-safe text.
