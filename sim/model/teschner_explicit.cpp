@@ -79,6 +79,7 @@ TeschnerExplicit::TeschnerExplicit(TetMeshPtr mesh, const Material& material, co
   // Stiffnesses. Derived (docs/deformation-models.md): an isotropic network of edge springs with
   // k = 15 mu V_edge has shear modulus mu and lambda = mu (Cauchy solid); the volume term adds the
   // rest of lambda, k_V = max(lambda - mu, mu / 2) V0. The area term is off unless set.
+  derived_damping_ = !(settings.distance_damping > 0.0);
   edge_rest_length_.resize(edges.size());
   edge_stiffness_.resize(edges.size());
   edge_damping_.resize(edges.size());
@@ -140,7 +141,7 @@ void TeschnerExplicit::forces(std::span<const Vec3> x, const Vec3* vel, std::spa
     const double D0 = edge_rest_length_[k];
     const Vec3 grad = d / (len * D0);  // dC/dx_b
     double s = -edge_stiffness_[k] * (len - D0) / D0;
-    if (vel != nullptr) s -= edge_damping_[k] * grad.dot(vel[b] - vel[a]);
+    if (vel != nullptr) s -= damping_scale_ * edge_damping_[k] * grad.dot(vel[b] - vel[a]);
     f[b] += s * grad;
     f[a] -= s * grad;
   }
@@ -181,7 +182,7 @@ Vec3 TeschnerExplicit::vertex_force(std::span<const Vec3> x, const Vec3* vel, in
     const double D0 = edge_rest_length_[k];
     const Vec3 grad = d / (len * D0);  // dC/dx_v
     double s = -edge_stiffness_[k] * (len - D0) / D0;
-    if (vel != nullptr) s -= edge_damping_[k] * grad.dot(vel[vs] - vel[o]);
+    if (vel != nullptr) s -= damping_scale_ * edge_damping_[k] * grad.dot(vel[vs] - vel[o]);
     f += s * grad;
   }
   for (int t : mesh_->vertex_tets(v)) {
@@ -250,12 +251,23 @@ double TeschnerExplicit::stable_time_step(std::span<const double> masses) const 
   if (!(omega2 > 0.0)) return std::numeric_limits<double>::infinity();
   const double omega = std::sqrt(omega2);
   // Symplectic Euler with damping ratio zeta is stable for h < 2/omega (sqrt(1 + zeta^2) - zeta).
-  const double zeta = 0.5 * (omega * max_damping_ratio_ + alpha_ / omega);
+  const double zeta = 0.5 * (omega * max_damping_ratio_ * damping_scale_for(omega) + alpha_ / omega);
   return kStabilitySafety * 2.0 / omega * (std::sqrt(1.0 + zeta * zeta) - zeta);
+}
+
+double TeschnerExplicit::damping_scale_for(double omega) const {
+  // Derived (Rayleigh) damping beyond critical on the highest mode only costs substeps: cap it there.
+  if (!derived_damping_ || !(omega * max_damping_ratio_ > 2.0)) return 1.0;
+  return 2.0 / (omega * max_damping_ratio_);
 }
 
 IntegrationResult TeschnerExplicit::advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) {
   IntegrationResult result;
+  double omega2 = 0.0;
+  for (size_t i = 0; i < frequency_bound_.size(); ++i) {
+    if (in.masses[i] > 0.0) omega2 = std::max(omega2, frequency_bound_[i] / in.masses[i]);
+  }
+  damping_scale_ = damping_scale_for(std::sqrt(omega2));
   const double h_stable = stable_time_step(in.masses);
   const double ratio = in.dt / h_stable;
   const int substeps = ratio <= 1.0 ? 1 : static_cast<int>(std::min(std::ceil(ratio), double(kMaxSubsteps)));

@@ -41,6 +41,8 @@ class TeschnerExplicit final : public DeformationModel {
   // Force of all constraints on vertex v only (damped if vel is given).
   Vec3 vertex_force(std::span<const Vec3> x, const Vec3* vel, int v) const;
   void forces(std::span<const Vec3> x, const Vec3* vel, std::span<Vec3> f) const;
+  // Factor on derived damping that keeps the highest mode (omega, rad/s) at most critically damped.
+  double damping_scale_for(double omega) const;
 
   TetMeshPtr mesh_;
   ModelAccuracy accuracy_;
@@ -55,6 +57,8 @@ class TeschnerExplicit final : public DeformationModel {
   std::vector<int> vertex_edge_offsets_, vertex_edges_;  ///< edges at each vertex (CSR)
   std::vector<double> frequency_bound_;   ///< per vertex: sum_c k_c |dC/dp_i| sum_j |dC/dp_j| at rest (N/m)
   double max_damping_ratio_ = 0.0;        ///< max k_d / k over edges (s)
+  bool derived_damping_ = true;           ///< k_d derived from Rayleigh beta (and so capped)
+  double damping_scale_ = 1.0;            ///< caps derived damping at critical for the top mode
 
   std::vector<Vec3> accel_;  ///< scratch
 };
