@@ -17,6 +17,11 @@ long parse_count(TextScanner& in, const std::string& what) {
   return n;
 }
 
+// Integer cell scalars that hold region tags: ours, meshio's, gmsh's and tetgen's (-k) names.
+bool is_tag_scalar_name(std::string_view name) {
+  return name == "tag" || name == "gmsh:physical" || name == "CellEntityIds" || name == "cell_scalars";
+}
+
 // Checks the keyword line "<KEYWORD> ..." starts with `keyword`.
 void expect_keyword(TextScanner& in, std::string_view token, const std::string& keyword) {
   if (token != keyword) in.fail(InputErrorKind::syntax, "expected " + keyword + ", got '" + std::string(token) + "'");
@@ -157,7 +162,7 @@ TetMeshPtr read_vtk_scanner(TextScanner& in, TetMeshReadReport* report) {
       }
       const ScannedLine& scalars = in.next_line("SCALARS");
       if (scalars.tokens[0] != "SCALARS" || scalars.tokens.size() < 3 ||
-          (scalars.tokens[1] != "tag" && scalars.tokens[1] != "gmsh:physical")) {
+          !is_tag_scalar_name(scalars.tokens[1])) {
         break;  // other cell data is not ours to read
       }
       expect_keyword(in, in.next_line("LOOKUP_TABLE").tokens[0], "LOOKUP_TABLE");

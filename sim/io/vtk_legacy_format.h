@@ -1,7 +1,8 @@
 // Legacy VTK files (https://vtk.org/wp-content/uploads/2015/04/file-formats.pdf), ASCII
 // UNSTRUCTURED_GRID: POINTS, CELLS (the classic "n size" layout and the 5.x OFFSETS/CONNECTIVITY
 // layout) and CELL_TYPES. Cells of type 10 (VTK_TETRA) are kept, others skipped. An integer
-// CELL_DATA scalar named "tag" (what we write) or "gmsh:physical" becomes the tet tag.
+// CELL_DATA scalar named "tag" (ours), "gmsh:physical" (meshio), "CellEntityIds" (gmsh) or
+// "cell_scalars" (tetgen -k) becomes the tet tag.
 #pragma once
 
 #include <string>
