@@ -8,6 +8,7 @@
 // is symmetric, which is what makes the corotated force the exact gradient of the energy.
 #pragma once
 
+#include <Eigen/SVD>
 #include <cmath>
 
 #include "sim/math_types.h"
@@ -17,6 +18,17 @@ namespace pliant {
 /// Refines q (warm start, unit) towards the rotation of F; stops when the update angle (rad) is
 /// below `tolerance` or after `max_iterations`. Returns the iterations used.
 inline int extract_rotation(const Mat3& F, Quat& q, int max_iterations = 30, double tolerance = 1e-13) {
+  // The iteration climbs tr(R^T F) and stalls at its saddle points: a warm start facing away
+  // from F (tr(R^T F) <= 0, e.g. identity against a body placed at 180 degrees) is replaced by
+  // the rotation of the SVD, which the iteration then only polishes.
+  if (q.toRotationMatrix().cwiseProduct(F).sum() <= 0.0 && F.allFinite()) {
+    Eigen::JacobiSVD<Mat3> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Mat3 U = svd.matrixU();
+    const Mat3 V = svd.matrixV();
+    if ((U * V.transpose()).determinant() < 0.0) U.col(2) = -U.col(2);
+    q = Quat(Mat3(U * V.transpose()));
+    q.normalize();
+  }
   int it = 0;
   for (; it < max_iterations; ++it) {
     const Mat3 R = q.toRotationMatrix();
