@@ -45,7 +45,7 @@ void make_disc(double r, int n, std::vector<Vec2>& points, std::vector<TriIndice
 }  // namespace
 
 TetMeshPtr make_cylinder_mesh(const CylinderMeshSpec& spec) {
-  if (!(spec.radius > 0.0) || !std::isfinite(spec.radius) || !(spec.length > 0.0) || !std::isfinite(spec.length)) {
+  if (!std::isfinite(spec.radius) || !std::isfinite(spec.length) || !(spec.radius > 0.0) || !(spec.length > 0.0)) {
     throw InputError(InputErrorKind::bad_value, "cylinder", "radius and length must be positive and finite");
   }
   if (spec.radial_cells < 1 || spec.axial_cells < 1 || spec.radial_cells > 1000 || spec.axial_cells > 100000) {

@@ -20,7 +20,7 @@ double sphere_shell_radius_fraction(int surface_vertices, int k) {
 }
 
 TetMeshPtr make_sphere_mesh(const SphereMeshSpec& spec) {
-  if (!(spec.radius > 0.0) || !std::isfinite(spec.radius)) {
+  if (!std::isfinite(spec.radius) || !(spec.radius > 0.0)) {  // isfinite first: NaN > 0 traps
     throw InputError(InputErrorKind::bad_value, "sphere", "radius must be positive and finite");
   }
   if (spec.surface_vertices < 12 || spec.surface_vertices > 200000) {
