@@ -1,11 +1,263 @@
 #include "sim/collision/penetration_depth.h"
 
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+
+#include "sim/collision/contact_triangle.h"
+
 namespace pliant {
 
-// Placeholder until issue 4 lands.
-void PenetrationDepthSolver::compute(std::span<const CollisionBody>, std::span<const VertexInTet>,
+PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<const CollisionBody> bodies,
+                                                                    int body) {
+  Surface& s = surfaces_[static_cast<size_t>(body)];
+  if (s.built_in_call != call_) {
+    const CollisionBody& cb = bodies[static_cast<size_t>(body)];
+    s.bvh.build(*cb.mesh, cb.positions);
+    s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
+    cb.mesh->vertex_normals(cb.positions, s.vertex_normals);
+    s.built_in_call = call_;
+  }
+  return s;
+}
+
+Vec3 PenetrationDepthSolver::smoothed_normal(const Surface& surface, const SurfacePoint& hit) const {
+  // Heidelberger 2004, section 4.2: barycentric interpolation of the hit face's vertex normals.
+  const TetMesh& mesh = *surface.bvh.mesh();
+  const auto& tri = mesh.surface_triangles()[static_cast<size_t>(hit.triangle)];
+  Vec3 n = Vec3::Zero();
+  for (int k = 0; k < 3; ++k) {
+    n += hit.barycentric[k] * surface.vertex_normals[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+  }
+  const double len = n.norm();
+  if (len > 1e-12) return n / len;
+  // Opposite vertex normals cancel (a sharp fold): the flat face normal instead.
+  return mesh.triangle_normal(surface.bvh.positions(), hit.triangle);
+}
+
+void PenetrationDepthSolver::compute(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
                                      std::vector<VertexContact>& out) {
   out.clear();
+  stats_ = PenetrationDepthStats{};
+  ++call_;
+  if (colliding.empty()) return;
+  if (surfaces_.size() < bodies.size()) surfaces_.resize(bodies.size());
+
+  // Group entries by (colliding body, penetrated body), vertices ascending inside a group.
+  const int n = static_cast<int>(colliding.size());
+  order_.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) order_[static_cast<size_t>(i)] = i;
+  std::sort(order_.begin(), order_.end(), [&](int a, int b) {
+    const VertexInTet& p = colliding[static_cast<size_t>(a)];
+    const VertexInTet& q = colliding[static_cast<size_t>(b)];
+    if (p.body != q.body) return p.body < q.body;
+    if (p.penetrated_body != q.penetrated_body) return p.penetrated_body < q.penetrated_body;
+    if (p.vertex != q.vertex) return p.vertex < q.vertex;
+    return a < b;
+  });
+  results_.resize(static_cast<size_t>(n));
+  has_result_.assign(static_cast<size_t>(n), 0);
+  for (int begin = 0; begin < n;) {
+    const VertexInTet& first = colliding[static_cast<size_t>(order_[static_cast<size_t>(begin)])];
+    int end = begin + 1;
+    while (end < n) {
+      const VertexInTet& c = colliding[static_cast<size_t>(order_[static_cast<size_t>(end)])];
+      if (c.body != first.body || c.penetrated_body != first.penetrated_body) break;
+      ++end;
+    }
+    solve_group(bodies, colliding,
+                std::span<const int>(order_.data() + begin, static_cast<size_t>(end - begin)));
+    begin = end;
+  }
+  for (int i = 0; i < n; ++i) {
+    if (has_result_[static_cast<size_t>(i)]) out.push_back(results_[static_cast<size_t>(i)]);
+  }
+}
+
+void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
+                                         std::span<const VertexInTet> colliding, std::span<const int> group) {
+  const VertexInTet& first = colliding[static_cast<size_t>(group[0])];
+  const CollisionBody& body = bodies[static_cast<size_t>(first.body)];
+  const TetMesh& mesh = *body.mesh;
+  const std::span<const Vec3> x = body.positions;
+  const bool self = first.body == first.penetrated_body;
+  const Surface& surface = surface_of(bodies, first.penetrated_body);
+  const int count = static_cast<int>(group.size());
+  // Weights 1/|.|^2 are capped where two points (nearly) coincide.
+  const double min_distance_squared = std::pow(1e-9 * std::max(mesh.mean_edge_length(), 1e-300), 2);
+
+  // Mark this group's colliding vertices (stamped: no clearing of the per-vertex arrays).
+  if (vertex_stamp_.size() < static_cast<size_t>(mesh.vertex_count())) {
+    vertex_stamp_.resize(static_cast<size_t>(mesh.vertex_count()), 0u);
+    vertex_slot_.resize(static_cast<size_t>(mesh.vertex_count()), -1);
+  }
+  if (++group_stamp_ == 0) {
+    std::fill(vertex_stamp_.begin(), vertex_stamp_.end(), 0u);
+    group_stamp_ = 1;
+  }
+  for (int k = 0; k < count; ++k) {
+    const auto v = static_cast<size_t>(colliding[static_cast<size_t>(group[static_cast<size_t>(k)])].vertex);
+    vertex_stamp_[v] = group_stamp_;
+    vertex_slot_[v] = k;
+  }
+  auto slot_of = [&](int v) {
+    return vertex_stamp_[static_cast<size_t>(v)] == group_stamp_ ? vertex_slot_[static_cast<size_t>(v)] : -1;
+  };
+  auto result = [&](int k) -> VertexContact& {
+    return results_[static_cast<size_t>(group[static_cast<size_t>(k)])];
+  };
+
+  layer_.assign(static_cast<size_t>(count), -1);
+  frontier_.clear();
+
+  // Border points (Heidelberger 2004, eq. (2) and (3)).
+  for (int k = 0; k < count; ++k) {
+    const VertexInTet& c = colliding[static_cast<size_t>(group[static_cast<size_t>(k)])];
+    VertexContact& r = result(k);
+    r = VertexContact{};
+    r.body = c.body;
+    r.vertex = c.vertex;
+    r.penetrated_body = c.penetrated_body;
+    r.tet = c.tet;
+    const Vec3& p = x[static_cast<size_t>(c.vertex)];
+    double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
+    Vec3 direction_sum = Vec3::Zero(), nearest_normal = Vec3::Zero();
+    for (int q : mesh.vertex_neighbors(c.vertex)) {
+      if (slot_of(q) >= 0) continue;
+      ++stats_.edge_intersections;
+      // Keep the intersection nearest the non-colliding end q (largest t along p -> q).
+      SurfacePoint best;
+      bool hit = false;
+      surface.bvh.for_each_segment_hit(p, x[static_cast<size_t>(q)], self ? c.vertex : -1, self ? q : -1,
+                                       [&](const SurfacePoint& s) {
+                                         if (!hit || s.t > best.t || (s.t == best.t && s.triangle < best.triangle)) {
+                                           best = s;
+                                           hit = true;
+                                         }
+                                       });
+      if (!hit) continue;
+      const Vec3 normal = smoothed_normal(surface, best);
+      const double d2 = (best.point - p).squaredNorm();
+      const double w = 1.0 / std::max(d2, min_distance_squared);
+      depth_sum += w * (best.point - p).dot(normal);
+      direction_sum += w * normal;
+      weight_sum += w;
+      if (d2 < nearest_d2) {
+        nearest_d2 = d2;
+        nearest_normal = normal;
+      }
+    }
+    if (weight_sum == 0.0) continue;  // all edges missed: an inner point after all
+    r.penetration_depth = depth_sum / weight_sum;
+    const double len = direction_sum.norm();
+    if (len > 1e-12 * weight_sum) {
+      r.penetration_direction = direction_sum / len;
+    } else {
+      r.penetration_direction = nearest_normal;  // normals cancel: the nearest hit's normal
+      ++stats_.direction_fallbacks;
+    }
+    r.depth_source = DepthSource::border;
+    r.layer = 0;
+    layer_[static_cast<size_t>(k)] = 0;
+    frontier_.push_back(k);
+    ++stats_.border_points;
+  }
+
+  // Propagation inward, layer by layer; only earlier layers contribute (eq. (4) and (5)).
+  for (int layer = 1; !frontier_.empty(); ++layer) {
+    next_.clear();
+    for (int k : frontier_) {
+      for (int q : mesh.vertex_neighbors(result(k).vertex)) {
+        const int s = slot_of(q);
+        if (s >= 0 && layer_[static_cast<size_t>(s)] < 0) {
+          layer_[static_cast<size_t>(s)] = layer;
+          next_.push_back(s);
+        }
+      }
+    }
+    std::sort(next_.begin(), next_.end());  // order does not change values; keeps traces readable
+    for (int k : next_) {
+      VertexContact& r = result(k);
+      const Vec3& p = x[static_cast<size_t>(r.vertex)];
+      double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
+      Vec3 direction_sum = Vec3::Zero(), nearest_direction = Vec3::Zero();
+      for (int q : mesh.vertex_neighbors(r.vertex)) {
+        const int s = slot_of(q);
+        if (s < 0 || layer_[static_cast<size_t>(s)] < 0 || layer_[static_cast<size_t>(s)] >= layer) continue;
+        const VertexContact& nb = result(s);
+        const Vec3 e = x[static_cast<size_t>(q)] - p;
+        const double d2 = e.squaredNorm();
+        const double mu = 1.0 / std::max(d2, min_distance_squared);
+        depth_sum += mu * (e.dot(nb.penetration_direction) + nb.penetration_depth);
+        direction_sum += mu * nb.penetration_direction;
+        weight_sum += mu;
+        if (d2 < nearest_d2) {
+          nearest_d2 = d2;
+          nearest_direction = nb.penetration_direction;
+        }
+      }
+      assert(weight_sum > 0.0);
+      r.penetration_depth = depth_sum / weight_sum;
+      const double len = direction_sum.norm();
+      if (len > 1e-12 * weight_sum) {
+        r.penetration_direction = direction_sum / len;
+      } else {
+        r.penetration_direction = nearest_direction;
+        ++stats_.direction_fallbacks;
+      }
+      r.depth_source = DepthSource::propagated;
+      r.layer = layer;
+      ++stats_.propagated_points;
+      stats_.max_layer = std::max(stats_.max_layer, layer);
+    }
+    std::swap(frontier_, next_);
+  }
+
+  // Every point: enclosed fallback if no layer reached it, then the contact triangle.
+  for (int k = 0; k < count; ++k) {
+    VertexContact& r = result(k);
+    const Vec3& p = x[static_cast<size_t>(r.vertex)];
+    const int exclude = self ? r.vertex : -1;
+    if (layer_[static_cast<size_t>(k)] < 0) {
+      // Beyond the paper: nearest point of the penetrated surface (docs/penetration-depth.md).
+      SurfacePoint nearest;
+      if (!surface.bvh.nearest_point(p, exclude, nearest)) {
+        ++stats_.dropped;
+        continue;
+      }
+      const Vec3 e = nearest.point - p;
+      r.penetration_depth = e.norm();
+      r.penetration_direction =
+          r.penetration_depth > 1e-300 ? Vec3(e / r.penetration_depth) : smoothed_normal(surface, nearest);
+      r.depth_source = DepthSource::enclosed_fallback;
+      r.layer = 0;
+      ++stats_.enclosed_fallback_points;
+    }
+    if (r.penetration_depth < 0.0) {
+      r.penetration_depth = 0.0;
+      ++stats_.clamped_negative_depths;
+    }
+    // Contact triangle: first hit of the ray x + t r, t >= 0; else the nearest surface triangle.
+    const auto hit = find_contact_triangle(surface.bvh, p, r.penetration_direction, exclude);
+    if (!hit) {
+      ++stats_.dropped;
+      continue;
+    }
+    r.triangle_source = hit->source;
+    if (hit->source == ContactTriangleSource::nearest_point_fallback) {
+      ++stats_.ray_misses;
+      if (r.penetration_direction.squaredNorm() < 0.5) {  // no direction at all: towards the hit
+        const Vec3 e = hit->point.point - p;
+        const double len = e.norm();
+        r.penetration_direction = len > 1e-300 ? Vec3(e / len) : smoothed_normal(surface, hit->point);
+      }
+    }
+    r.contact_triangle = hit->point.triangle;
+    r.contact_barycentric = hit->point.barycentric;
+    r.contact_point = hit->point.point;
+    has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+  }
 }
 
 }  // namespace pliant

@@ -1,13 +1,40 @@
 // Stage 2: consistent penetration depth (Heidelberger et al. 2004) and the contact triangle of
-// every colliding vertex (algorithms.md section 2).
+// every colliding vertex (algorithms.md section 2; choices in docs/penetration-depth.md).
+//
+// Design note. Colliding vertices are grouped by (colliding body, penetrated body); each group is
+// solved on its own, so "colliding" below means "inside the same penetrated body". Per group:
+// border points (a colliding vertex with a non-colliding tet-edge neighbour) intersect each such
+// edge with the penetrated body's surface (a SurfaceBvh, built once per step per penetrated body)
+// and keep the hit nearest the non-colliding end; depth and direction are the 1/|x_i - p|^2
+// weighted means of Heidelberger eq. (2)/(3) with smoothed (interpolated vertex) normals. Inner
+// points get theirs layer by layer from points of earlier layers only (eq. (4)/(5)). Points no
+// layer reaches (a body enclosed by another, or a colliding island without border) take depth and
+// direction from the nearest point of the penetrated surface (beyond the paper). The contact
+// triangle is the first surface triangle hit by the ray x + t r, t >= 0; if the direction vanished
+// or the ray misses, the nearest surface triangle. Scratch buffers are members and only grow.
 #pragma once
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
 #include "sim/collision/contact_types.h"
+#include "sim/collision/surface_bvh.h"
 
 namespace pliant {
+
+/// What the last compute() did (for tests, benchmarks and diagnostics).
+struct PenetrationDepthStats {
+  int border_points = 0;            ///< depth from edge intersections (layer 0)
+  int propagated_points = 0;        ///< depth propagated from earlier layers
+  int enclosed_fallback_points = 0; ///< depth from the nearest surface point
+  int direction_fallbacks = 0;      ///< r vanished: nearest hit's / neighbour's direction used
+  int clamped_negative_depths = 0;  ///< weighted means below zero, clamped to d = 0
+  int ray_misses = 0;               ///< contact triangle from the nearest-point fallback
+  int dropped = 0;                  ///< no eligible surface triangle at all: no entry in `out`
+  long long edge_intersections = 0; ///< border edges intersected with the surface
+  int max_layer = 0;                ///< deepest propagation layer reached
+};
 
 class PenetrationDepthSolver {
  public:
@@ -16,6 +43,34 @@ class PenetrationDepthSolver {
   /// for which no contact triangle exists at all (documented in docs/penetration-depth.md).
   void compute(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
                std::vector<VertexContact>& out);
+
+  /// Counters of the last compute().
+  const PenetrationDepthStats& stats() const { return stats_; }
+
+ private:
+  /// The penetrated body's surface at this step: hierarchy and smoothed vertex normals.
+  struct Surface {
+    SurfaceBvh bvh;
+    std::vector<Vec3> vertex_normals;
+    std::uint64_t built_in_call = 0;  ///< call counter value when last built
+  };
+
+  Surface& surface_of(std::span<const CollisionBody> bodies, int body);
+  void solve_group(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
+                   std::span<const int> group);
+  Vec3 smoothed_normal(const Surface& surface, const SurfacePoint& hit) const;
+
+  PenetrationDepthStats stats_;
+  std::uint64_t call_ = 0;
+  std::vector<Surface> surfaces_;             ///< per body index
+  std::vector<int> order_;                    ///< colliding entries sorted by group
+  std::vector<VertexContact> results_;        ///< per colliding entry
+  std::vector<char> has_result_;              ///< per colliding entry: a contact triangle exists
+  std::vector<std::uint32_t> vertex_stamp_;   ///< per vertex of the colliding body: group stamp
+  std::vector<int> vertex_slot_;              ///< per vertex: index into the group (if stamped)
+  std::uint32_t group_stamp_ = 0;
+  std::vector<int> layer_;                    ///< per group entry: -1 unprocessed, else layer
+  std::vector<int> frontier_, next_;          ///< propagation fronts (group entry indices)
 };
 
 }  // namespace pliant

@@ -1,0 +1,75 @@
+// Bounding volume hierarchy over the surface triangles of one body at its current positions: the
+// accelerator of stage 2 (edge-surface intersections, the contact-triangle ray, nearest surface
+// point). Rebuilt each step for every penetrated body; buffers are reused, so a rebuild allocates
+// nothing once they have grown.
+//
+// Design note. Median split on the longest axis of the triangle centroids, up to 4 triangles per
+// leaf, nodes in depth-first order (left child follows its parent). Queries keep an explicit stack
+// of fixed size (the median split bounds the depth by log2 of the triangle count). Ties between
+// equally near triangles go to the smaller triangle index, so results do not depend on the tree.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "sim/math_types.h"
+#include "sim/mesh/tet_mesh.h"
+
+namespace pliant {
+
+/// A point on a surface triangle of a body.
+struct SurfacePoint {
+  int triangle = -1;                  ///< index into mesh.surface_triangles()
+  Vec3 barycentric = Vec3::Zero();    ///< weights of the triangle's corners (sum 1, each in [0,1])
+  Vec3 point = Vec3::Zero();          ///< the point itself (m)
+  double t = 0.0;                     ///< ray/segment parameter (ray and segment queries)
+  double distance_squared = 0.0;      ///< squared distance to the query point (nearest query), m^2
+};
+
+class SurfaceBvh {
+ public:
+  /// Builds the hierarchy over mesh's surface triangles at positions x (which must outlive queries).
+  void build(const TetMesh& mesh, std::span<const Vec3> x);
+
+  /// Calls visit(point) for every surface triangle crossed by the segment a + t (b - a), t in [0,1],
+  /// skipping triangles that contain vertex exclude_a or exclude_b (-1: none).
+  template <class Visit>
+  void for_each_segment_hit(const Vec3& a, const Vec3& b, int exclude_a, int exclude_b, Visit&& visit) const;
+
+  /// First triangle hit by origin + t dir, t >= 0 (smallest t); false if the ray misses. Triangles
+  /// containing vertex `exclude` (-1: none) are skipped.
+  bool first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude, SurfacePoint& hit) const;
+
+  /// Closest point of the surface to p; false only if no triangle is eligible. Triangles containing
+  /// vertex `exclude` (-1: none) are skipped.
+  bool nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest) const;
+
+  /// The mesh the hierarchy was built for.
+  const TetMesh* mesh() const { return mesh_; }
+  /// The positions the hierarchy was built for (m).
+  std::span<const Vec3> positions() const { return x_; }
+
+ private:
+  struct Node {
+    Aabb box;
+    int first = 0;   ///< leaf: first entry in order_; inner: index of the right child
+    int count = 0;   ///< leaf: number of triangles (> 0); inner: 0
+  };
+  static constexpr int kLeafSize = 4;
+  static constexpr int kMaxStack = 128;
+
+  int build_node(int begin, int end, int depth);
+  bool excluded(int tri, int exclude_a, int exclude_b) const;
+  const Vec3& corner(int tri, int k) const;
+
+  const TetMesh* mesh_ = nullptr;
+  std::span<const Vec3> x_;
+  std::vector<Node> nodes_;
+  std::vector<int> order_;
+  std::vector<Vec3> centroids_;
+  std::vector<Aabb> boxes_;
+};
+
+}  // namespace pliant
+
+#include "sim/collision/surface_bvh_inl.h"
