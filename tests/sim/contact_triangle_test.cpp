@@ -1,0 +1,227 @@
+// Contact triangles (the ray x + t r onto the penetrated surface, first hit with t >= 0) and the
+// surface BVH behind them, against brute force over all surface triangles; the missed-ray and
+// vanishing-direction fallbacks (nearest surface triangle); self-collision contacts.
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include "sim/collision/contact_triangle.h"
+#include "sim/collision/penetration_depth.h"
+#include "sim/collision/spatial_hash.h"
+#include "sim/collision/triangle_queries.h"
+#include "sim/mesh/box_mesh.h"
+
+namespace pliant {
+namespace {
+
+const Vec3& corner(const TetMesh& m, std::span<const Vec3> x, int tri, int k) {
+  return x[static_cast<size_t>(m.surface_triangles()[static_cast<size_t>(tri)][static_cast<size_t>(k)])];
+}
+
+// Brute force: smallest t >= 0 over all surface triangles (infinity if none).
+double brute_first_hit(const TetMesh& m, std::span<const Vec3> x, const Vec3& o, const Vec3& d, int exclude = -1) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int t = 0; t < m.surface_triangle_count(); ++t) {
+    const auto& tri = m.surface_triangles()[static_cast<size_t>(t)];
+    if (std::find(tri.begin(), tri.end(), exclude) != tri.end()) continue;
+    TriangleHit h;
+    if (ray_triangle_intersection(o, d, corner(m, x, t, 0), corner(m, x, t, 1), corner(m, x, t, 2), 0.0,
+                                  std::numeric_limits<double>::max(), h)) {
+      best = std::min(best, h.t);
+    }
+  }
+  return best;
+}
+
+// Brute force: squared distance from p to the surface.
+double brute_nearest_d2(const TetMesh& m, std::span<const Vec3> x, const Vec3& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int t = 0; t < m.surface_triangle_count(); ++t) {
+    const Vec3 w = closest_point_on_triangle_barycentric(p, corner(m, x, t, 0), corner(m, x, t, 1), corner(m, x, t, 2));
+    const Vec3 q = w[0] * corner(m, x, t, 0) + w[1] * corner(m, x, t, 1) + w[2] * corner(m, x, t, 2);
+    best = std::min(best, (q - p).squaredNorm());
+  }
+  return best;
+}
+
+// The hit lies on its triangle: weights in [0,1] summing to 1, point = weighted corners, on the plane.
+void expect_on_triangle(const TetMesh& m, std::span<const Vec3> x, int tri, const Vec3& bary, const Vec3& point) {
+  ASSERT_GE(tri, 0);
+  ASSERT_LT(tri, m.surface_triangle_count());
+  EXPECT_GE(bary.minCoeff(), 0.0);
+  EXPECT_LE(bary.maxCoeff(), 1.0);
+  EXPECT_NEAR(bary.sum(), 1.0, 1e-14);
+  const Vec3 a = corner(m, x, tri, 0), b = corner(m, x, tri, 1), c = corner(m, x, tri, 2);
+  EXPECT_NEAR((bary[0] * a + bary[1] * b + bary[2] * c - point).norm(), 0.0, 1e-12);
+  const Vec3 n = (b - a).cross(c - a).normalized();
+  EXPECT_NEAR(n.dot(point - a), 0.0, 1e-12);
+}
+
+std::vector<Vec3> jittered(const TetMesh& m, double amplitude, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-amplitude, amplitude);
+  std::vector<Vec3> x;
+  for (const Vec3& p : m.rest_positions()) x.push_back(p + Vec3(u(rng), u(rng), u(rng)));
+  return x;
+}
+
+TEST(SurfaceBvh, RayAndNearestQueriesMatchBruteForce) {
+  const auto mesh = make_box_mesh({Vec3(1.0, 0.6, 0.4), 10, 6, 4});
+  const auto x = jittered(*mesh, 0.02, 7);
+  SurfaceBvh bvh;
+  bvh.build(*mesh, x);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.8, 0.8);
+  std::normal_distribution<double> g;
+  int hits = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3 o(u(rng), u(rng), u(rng));
+    const Vec3 d = Vec3(g(rng), g(rng), g(rng)).normalized();
+    SurfacePoint hit;
+    const double brute = brute_first_hit(*mesh, x, o, d);
+    const bool found = bvh.first_ray_hit(o, d, -1, hit);
+    ASSERT_EQ(found, std::isfinite(brute)) << i;
+    if (found) {
+      ++hits;
+      EXPECT_NEAR(hit.t, brute, 1e-12);
+      expect_on_triangle(*mesh, x, hit.triangle, hit.barycentric, hit.point);
+      EXPECT_NEAR((o + hit.t * d - hit.point).norm(), 0.0, 1e-12);
+    }
+    SurfacePoint nearest;
+    ASSERT_TRUE(bvh.nearest_point(o, -1, nearest));
+    EXPECT_NEAR(nearest.distance_squared, brute_nearest_d2(*mesh, x, o), 1e-14);
+    expect_on_triangle(*mesh, x, nearest.triangle, nearest.barycentric, nearest.point);
+  }
+  EXPECT_GT(hits, 300);
+}
+
+TEST(ContactTriangle, FirstRayHitLiesOnTheTriangleAndDepthVectorLandsOnIt) {
+  // A ball pressed into a block: planar penetrated face, so x + d r is the ray's hit exactly.
+  const auto cube = make_box_mesh({Vec3(0.6, 0.6, 0.6), 6, 6, 6});
+  const auto block = make_box_mesh({Vec3(2.0, 2.0, 2.0), 8, 8, 8});
+  std::vector<Vec3> probe;
+  for (const Vec3& p : cube->rest_positions()) {
+    const double n = p.norm();
+    probe.push_back((n > 0.0 ? Vec3(p * (p.cwiseAbs().maxCoeff() / n)) : p) + Vec3(0.2, -0.1, 1.1));
+  }
+  std::vector<CollisionBody> bodies(2);
+  bodies[0].mesh = cube.get();
+  bodies[0].positions = probe;
+  bodies[1].mesh = block.get();
+  bodies[1].positions = block->rest_positions();
+  SpatialHash hash;
+  PenetrationDepthSolver solver;
+  std::vector<VertexInTet> colliding;
+  std::vector<VertexContact> contacts;
+  hash.detect(bodies, CollisionFilter::from_bodies(bodies), colliding);
+  solver.compute(bodies, colliding, contacts);
+  int checked = 0;
+  for (const auto& c : contacts) {
+    if (c.body != 0) continue;
+    ++checked;
+    const auto& x = bodies[1].positions;
+    EXPECT_EQ(c.triangle_source, ContactTriangleSource::ray);
+    expect_on_triangle(*block, x, c.contact_triangle, c.contact_barycentric, c.contact_point);
+    const Vec3& p = probe[static_cast<size_t>(c.vertex)];
+    EXPECT_NEAR((p + c.depth_vector() - c.contact_point).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((c.contact_point - p).norm(), brute_first_hit(*block, x, p, c.penetration_direction), 1e-12);
+  }
+  EXPECT_GT(checked, 20);
+}
+
+TEST(ContactTriangle, TiltedBlockContactsAreFirstHits) {
+  // Penetrated body rotated and jittered (curved, non-axis-aligned surface): the contact triangle is
+  // still the first hit along r, by brute force.
+  const auto cube = make_box_mesh({Vec3(0.5, 0.5, 0.5), 5, 5, 5});
+  const auto block = make_box_mesh({Vec3(2.0, 2.0, 2.0), 8, 8, 8});
+  const Quat q(Eigen::AngleAxisd(0.3, Vec3(1, -2, 1).normalized()));
+  auto xb = jittered(*block, 0.03, 11);
+  for (auto& p : xb) p = q * p;
+  std::vector<Vec3> probe;
+  for (const Vec3& p : cube->rest_positions()) probe.push_back(p + q * Vec3(0.1, 0.2, 1.1));
+  std::vector<CollisionBody> bodies(2);
+  bodies[0].mesh = cube.get();
+  bodies[0].positions = probe;
+  bodies[1].mesh = block.get();
+  bodies[1].positions = xb;
+  CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  SpatialHash hash;
+  PenetrationDepthSolver solver;
+  std::vector<VertexInTet> colliding;
+  std::vector<VertexContact> contacts;
+  hash.detect(bodies, filter, colliding);
+  solver.compute(bodies, colliding, contacts);
+  int checked = 0;
+  for (const auto& c : contacts) {
+    const auto& pen = bodies[static_cast<size_t>(c.penetrated_body)];
+    const Vec3& p = bodies[static_cast<size_t>(c.body)].positions[static_cast<size_t>(c.vertex)];
+    expect_on_triangle(*pen.mesh, pen.positions, c.contact_triangle, c.contact_barycentric, c.contact_point);
+    EXPECT_NEAR(c.penetration_direction.norm(), 1.0, 1e-12);
+    EXPECT_GE(c.penetration_depth, 0.0);
+    if (c.triangle_source == ContactTriangleSource::ray) {
+      ++checked;
+      EXPECT_NEAR((c.contact_point - p).norm(), brute_first_hit(*pen.mesh, pen.positions, p, c.penetration_direction),
+                  1e-12);
+    }
+  }
+  EXPECT_GT(checked, 20);
+}
+
+TEST(ContactTriangle, MissedRayFallsBackToNearestTriangle) {
+  const auto block = make_box_mesh({Vec3(2.0, 2.0, 2.0), 4, 4, 4});
+  const auto x = jittered(*block, 0.02, 5);
+  SurfaceBvh bvh;
+  bvh.build(*block, x);
+  // A point above the block looking up: the ray misses every triangle.
+  const Vec3 p(0.3, -0.2, 1.5);
+  ASSERT_FALSE(std::isfinite(brute_first_hit(*block, x, p, Vec3::UnitZ())));
+  const auto hit = find_contact_triangle(bvh, p, Vec3::UnitZ(), -1);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(hit->source, ContactTriangleSource::nearest_point_fallback);
+  EXPECT_NEAR((hit->point.point - p).squaredNorm(), brute_nearest_d2(*block, x, p), 1e-14);
+  expect_on_triangle(*block, x, hit->point.triangle, hit->point.barycentric, hit->point.point);
+  // A vanishing direction takes the same fallback.
+  const auto zero = find_contact_triangle(bvh, p, Vec3::Zero(), -1);
+  ASSERT_TRUE(zero.has_value());
+  EXPECT_EQ(zero->source, ContactTriangleSource::nearest_point_fallback);
+  EXPECT_EQ(zero->point.triangle, hit->point.triangle);
+  // A ray that does hit is reported as such.
+  const auto down = find_contact_triangle(bvh, p, -Vec3::UnitZ(), -1);
+  ASSERT_TRUE(down.has_value());
+  EXPECT_EQ(down->source, ContactTriangleSource::ray);
+  EXPECT_NEAR(down->point.t, brute_first_hit(*block, x, p, -Vec3::UnitZ()), 1e-12);
+}
+
+TEST(ContactTriangle, SelfCollisionContactsAvoidTheVertexOwnTriangles) {
+  // A bar folded onto itself: contacts on its own surface, never on a triangle holding the vertex.
+  const auto mesh = make_box_mesh({Vec3(1.0, 0.3, 0.1), 20, 6, 2});
+  std::vector<Vec3> x;
+  for (const Vec3& p : mesh->rest_positions()) {
+    const double phi = 0.97 * std::numbers::pi * std::clamp(p.x() / 0.15, 0.0, 1.0);
+    x.push_back(Eigen::AngleAxisd(phi, Vec3::UnitZ()) * p + Vec3(0.0, 0.0, 0.03 * std::clamp(p.x() / 0.15, 0.0, 1.0)));
+  }
+  std::vector<CollisionBody> bodies(1);
+  bodies[0].mesh = mesh.get();
+  bodies[0].positions = x;
+  bodies[0].self_collision = true;
+  SpatialHash hash;
+  PenetrationDepthSolver solver;
+  std::vector<VertexInTet> colliding;
+  std::vector<VertexContact> contacts;
+  hash.detect(bodies, CollisionFilter::from_bodies(bodies), colliding);
+  solver.compute(bodies, colliding, contacts);
+  ASSERT_GT(colliding.size(), 20u);
+  EXPECT_EQ(contacts.size(), colliding.size());
+  for (const auto& c : contacts) {
+    const auto& tri = mesh->surface_triangles()[static_cast<size_t>(c.contact_triangle)];
+    EXPECT_EQ(std::find(tri.begin(), tri.end(), c.vertex), tri.end());
+    expect_on_triangle(*mesh, x, c.contact_triangle, c.contact_barycentric, c.contact_point);
+    EXPECT_GE(c.penetration_depth, 0.0);
+    EXPECT_NEAR(c.penetration_direction.norm(), 1.0, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace pliant
