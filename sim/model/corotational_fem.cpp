@@ -262,6 +262,12 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
     for (size_t i = 0; i < n; ++i) r_[i] = rhs_[i] - q_[i];
     double residual = std::sqrt(dot(r_, r_)) / rhs_norm;
+    if (residual > 1.0) {
+      // The warm start is worse than zero (e.g. after a contact edit): start from zero instead.
+      std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
+      std::copy(rhs_.begin(), rhs_.end(), r_.begin());
+      residual = 1.0;
+    }
     for (size_t i = 0; i < n; ++i) p_[i] = z_[i] = preconditioner_[i] * r_[i];
     double rz = dot(r_, z_);
     int it = 0;

@@ -34,11 +34,28 @@ inline int extract_rotation(const Mat3& F, Quat& q, int max_iterations = 30, dou
     const Mat3 R = q.toRotationMatrix();
     const Vec3 omega_num = R.col(0).cross(F.col(0)) + R.col(1).cross(F.col(1)) + R.col(2).cross(F.col(2));
     const double denom = std::abs(R.col(0).dot(F.col(0)) + R.col(1).dot(F.col(1)) + R.col(2).dot(F.col(2))) + 1e-9;
-    const Vec3 omega = omega_num / denom;
+    Vec3 omega = omega_num / denom;
+    bool newton_step = false;
+    const Mat3 A = F * R.transpose();
+    Mat3 H = -0.5 * (A + A.transpose());
+    H.diagonal().array() += A.trace();
+    const Eigen::LLT<Mat3> newton(H);
+    if (newton.info() == Eigen::Success && H.diagonal().minCoeff() > 1e-3 * denom) {
+      const Vec3 step = newton.solve(omega_num);
+      if (step.allFinite() && step.norm() < 1.0) {
+        omega = step;
+        newton_step = true;
+      }
+    }
     const double angle = omega.norm();
     if (!(angle >= tolerance)) break;  // also stops on NaN input
     q = Quat(Eigen::AngleAxisd(angle, omega / angle)) * q;
     q.normalize();
+    // Newton converges quadratically: after a step of `angle` the error is O(angle^2).
+    if (newton_step && angle * angle < tolerance) {
+      ++it;
+      break;
+    }
   }
   return it;
 }
