@@ -90,7 +90,7 @@ void read_elements_22(GmshParse& p) {
     const long tag = in.parse_int(line.tokens[0], "element tag");
     const long type = in.parse_int(line.tokens[1], "element type");
     const long n_tags = in.parse_int(line.tokens[2], "number of tags");
-    if (n_tags < 0) in.fail(InputErrorKind::bad_value, "negative number of tags");
+    if (n_tags < 0 || n_tags > 1000) in.fail(InputErrorKind::bad_value, "number of tags must be in [0, 1000]");
     if (type != kGmshTetrahedron) {
       ++p.skipped;
       continue;
@@ -127,7 +127,7 @@ void read_entities_41(GmshParse& p) {
       if (line.tokens.size() < 8) in.fail(InputErrorKind::syntax, "expected a volume entity '<tag> <bbox> <#physical> ...'");
       const long tag = in.parse_int(line.tokens[0], "volume tag");
       const long n_phys = in.parse_int(line.tokens[7], "number of physical tags");
-      if (n_phys < 0 || line.tokens.size() < static_cast<size_t>(8 + n_phys)) {
+      if (n_phys < 0 || n_phys > static_cast<long>(line.tokens.size()) - 8) {
         in.fail(InputErrorKind::syntax, "volume entity lists fewer physical tags than it announces");
       }
       if (n_phys > 0) {
@@ -151,16 +151,18 @@ void read_nodes_41(GmshParse& p) {
     expect_tokens(in, bh, 4, "entity dimension, entity tag, parametric, number of nodes");
     const long dim = in.parse_int(bh.tokens[0], "entity dimension");
     const long parametric = in.parse_int(bh.tokens[2], "parametric flag");
+    if (dim < 0 || dim > 3) in.fail(InputErrorKind::bad_value, "entity dimension must be 0..3");
     const long n = in.parse_int(bh.tokens[3], "number of nodes in block");
-    if (n < 0 || seen + n > total) {
+    if (n < 0 || n > total - seen) {
       in.fail(InputErrorKind::count_mismatch, "node blocks hold more than the " + std::to_string(total) +
                                                   " nodes the $Nodes header promises");
     }
-    std::vector<long> tags(static_cast<size_t>(n));
+    std::vector<long> tags;
+    tags.reserve(in.reserve_hint(n, 4));
     for (long i = 0; i < n; ++i) {
       const ScannedLine& line = record(in, "$Nodes", "a node tag", n);
       expect_tokens(in, line, 1, "node tag");
-      tags[static_cast<size_t>(i)] = in.parse_int(line.tokens[0], "node tag");
+      tags.push_back(in.parse_int(line.tokens[0], "node tag"));
     }
     const size_t coords = 3 + static_cast<size_t>(parametric != 0 ? dim : 0);
     for (long i = 0; i < n; ++i) {
@@ -192,7 +194,7 @@ void read_elements_41(GmshParse& p) {
     const long entity = in.parse_int(bh.tokens[1], "entity tag");
     const long type = in.parse_int(bh.tokens[2], "element type");
     const long n = in.parse_int(bh.tokens[3], "number of elements in block");
-    if (n < 0 || seen + n > total) {
+    if (n < 0 || n > total - seen) {
       in.fail(InputErrorKind::count_mismatch, "element blocks hold more than the " + std::to_string(total) +
                                                   " elements the $Elements header promises");
     }

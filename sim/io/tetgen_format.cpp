@@ -47,9 +47,11 @@ TetMeshPtr read_tetgen(const std::string& path, TetMeshReadReport* report) {
   const long n_marker = header.tokens.size() > 3 ? node.parse_int(header.tokens[3], "boundary markers") : 0;
   if (dim != 3) node.fail(InputErrorKind::unsupported, "only 3-dimensional points are supported, got " + std::to_string(dim));
   if (n_points <= 0) node.fail(InputErrorKind::unsupported, "expected a positive number of points (points in a .poly are not supported)");
-  if (n_attr < 0 || n_marker < 0 || n_marker > 1) node.fail(InputErrorKind::bad_value, "bad attribute or marker count");
+  if (n_attr < 0 || n_attr > 1000 || n_marker < 0 || n_marker > 1) {
+    node.fail(InputErrorKind::bad_value, "attributes must be in [0, 1000] and markers 0 or 1");
+  }
   long first_index = 0;
-  data.positions.reserve(static_cast<size_t>(n_points));
+  data.positions.reserve(node.reserve_hint(n_points, 4 + n_attr + n_marker));
   for (long i = 0; i < n_points; ++i) {
     const ScannedLine& line = node.next_line("point " + std::to_string(i + 1) + " of " + std::to_string(n_points));
     expect_tokens(node, line, static_cast<size_t>(4 + n_attr + n_marker), "point number, x, y, z, attributes, marker");
@@ -82,7 +84,7 @@ TetMeshPtr read_tetgen(const std::string& path, TetMeshReadReport* report) {
   const long n_tet_attr = eh.tokens.size() > 2 ? ele.parse_int(eh.tokens[2], "number of attributes") : 0;
   if (per_tet != 4 && per_tet != 10) ele.fail(InputErrorKind::unsupported, "nodes per tetrahedron must be 4 or 10");
   if (n_tets <= 0) ele.fail(InputErrorKind::bad_value, "expected a positive number of tetrahedra");
-  if (n_tet_attr < 0) ele.fail(InputErrorKind::bad_value, "negative attribute count");
+  if (n_tet_attr < 0 || n_tet_attr > 1000) ele.fail(InputErrorKind::bad_value, "attributes must be in [0, 1000]");
   for (long t = 0; t < n_tets; ++t) {
     const ScannedLine& line = ele.next_line("tetrahedron " + std::to_string(t + 1) + " of " + std::to_string(n_tets));
     expect_tokens(ele, line, static_cast<size_t>(1 + per_tet + n_tet_attr), "tet number, nodes, attributes");

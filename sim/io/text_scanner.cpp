@@ -1,5 +1,6 @@
 #include "sim/io/text_scanner.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -47,6 +48,19 @@ TextScanner::TextScanner(std::string name, std::string text, char comment)
   }
   last_line_number_ = number;
   token_line_ = lines_.size();
+  tokens_before_.assign(lines_.size() + 1, 0);
+  for (size_t i = 0; i < lines_.size(); ++i) tokens_before_[i + 1] = tokens_before_[i] + lines_[i].tokens.size();
+}
+
+size_t TextScanner::remaining_tokens() const {
+  if (token_line_ < lines_.size()) return tokens_before_.back() - tokens_before_[token_line_] - next_token_;
+  return tokens_before_.back() - tokens_before_[next_line_];
+}
+
+size_t TextScanner::reserve_hint(long records, long tokens_each) const {
+  if (records <= 0) return 0;
+  const size_t most = remaining_tokens() / static_cast<size_t>(std::max(1L, tokens_each));
+  return std::min(static_cast<size_t>(records), most);
 }
 
 bool TextScanner::at_end() const {

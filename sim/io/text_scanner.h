@@ -35,6 +35,11 @@ class TextScanner {
   const ScannedLine& next_line(const std::string& expected);
   /// Next token, continuing on following lines; throws InputError(truncated) at end of file.
   std::string_view next_token(const std::string& expected);
+  /// Number of tokens not yet handed out (tokens of a line returned by next_line count as taken).
+  size_t remaining_tokens() const;
+  /// How many of `records` (tokens_each tokens each) the rest of the file can hold at most: a safe
+  /// size to reserve for a count read from a header (which may be garbage).
+  size_t reserve_hint(long records, long tokens_each) const;
   /// Line number of the last line or token handed out (0 before the first).
   long line() const { return current_line_number_; }
   /// "file:line" of the last line or token handed out.
@@ -51,6 +56,7 @@ class TextScanner {
   std::string name_;
   std::string text_;
   std::vector<ScannedLine> lines_;
+  std::vector<size_t> tokens_before_;  // tokens in lines_[0, i), size lines_ + 1
   size_t next_line_ = 0;         // index into lines_ of the next line to hand out
   size_t token_line_ = 0;        // line whose tokens next_token() walks (lines_.size() = none)
   size_t next_token_ = 0;        // index of the next token in lines_[token_line_]

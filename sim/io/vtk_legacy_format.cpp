@@ -1,6 +1,7 @@
 #include "sim/io/vtk_legacy_format.h"
 
 #include <cctype>
+#include <limits>
 #include <sstream>
 
 #include "sim/io/atomic_file.h"
@@ -20,6 +21,15 @@ long parse_count(TextScanner& in, const std::string& what) {
 // Integer cell scalars that hold region tags: ours, meshio's, gmsh's and tetgen's (-k) names.
 bool is_tag_scalar_name(std::string_view name) {
   return name == "tag" || name == "gmsh:physical" || name == "CellEntityIds" || name == "cell_scalars";
+}
+
+// A point id; ids outside int range are out of range for any mesh we can hold.
+int parse_point_id(TextScanner& in, const std::string& what) {
+  const long id = in.parse_int(in.next_token(what), "point id");
+  if (id < std::numeric_limits<int>::min() || id > std::numeric_limits<int>::max()) {
+    in.fail(InputErrorKind::index_out_of_range, "point id " + std::to_string(id) + " is out of range");
+  }
+  return static_cast<int>(id);
 }
 
 // Checks the keyword line "<KEYWORD> ..." starts with `keyword`.
@@ -57,7 +67,7 @@ TetMeshPtr read_vtk_scanner(TextScanner& in, TetMeshReadReport* report) {
     if (key == "POINTS") {
       const long n = parse_count(in, "number of points");
       in.next_token("the point data type");
-      data.positions.reserve(static_cast<size_t>(n));
+      data.positions.reserve(in.reserve_hint(n, 3));
       for (long i = 0; i < n; ++i) {
         Vec3 p;
         for (int k = 0; k < 3; ++k) {
@@ -79,19 +89,18 @@ TetMeshPtr read_vtk_scanner(TextScanner& in, TetMeshReadReport* report) {
       std::string_view next = in.next_token("cell data or OFFSETS");
       if (next == "OFFSETS") {  // VTK 5.x: offsets (n+1) then connectivity
         in.next_token("the offsets data type");
-        std::vector<long> offsets(static_cast<size_t>(n_cells_or_offsets));
-        std::vector<long> offset_lines(offsets.size());
-        for (auto& o : offsets) {
-          o = in.parse_int(in.next_token("an offset"), "offset");
-          offset_lines[static_cast<size_t>(&o - offsets.data())] = in.line();
+        std::vector<long> offsets, offset_lines;
+        for (long i = 0; i < n_cells_or_offsets; ++i) {
+          offsets.push_back(in.parse_int(in.next_token("an offset"), "offset"));
+          offset_lines.push_back(in.line());
         }
         expect_keyword(in, in.next_token("CONNECTIVITY"), "CONNECTIVITY");
         in.next_token("the connectivity data type");
-        std::vector<int> conn(static_cast<size_t>(size));
-        std::vector<long> conn_lines(conn.size());
-        for (size_t i = 0; i < conn.size(); ++i) {
-          conn[i] = static_cast<int>(in.parse_int(in.next_token("a point id"), "point id"));
-          conn_lines[i] = in.line();
+        std::vector<int> conn;
+        std::vector<long> conn_lines;
+        for (long i = 0; i < size; ++i) {
+          conn.push_back(parse_point_id(in, "a point id"));
+          conn_lines.push_back(in.line());
         }
         for (size_t c = 0; c + 1 < offsets.size(); ++c) {
           if (offsets[c] < 0 || offsets[c + 1] < offsets[c] || offsets[c + 1] > size) {
@@ -111,8 +120,8 @@ TetMeshPtr read_vtk_scanner(TextScanner& in, TetMeshReadReport* report) {
           const long k = in.parse_int(count_token, "number of points in cell " + std::to_string(c));
           const long line = in.line();
           if (k < 0) in.fail(InputErrorKind::bad_value, "negative point count");
-          std::vector<int> ids(static_cast<size_t>(k));
-          for (auto& id : ids) id = static_cast<int>(in.parse_int(in.next_token("a point id of cell " + std::to_string(c)), "point id"));
+          std::vector<int> ids;
+          for (long i = 0; i < k; ++i) ids.push_back(parse_point_id(in, "a point id of cell " + std::to_string(c)));
           cells.push_back(std::move(ids));
           cell_lines.push_back(line);
           used += k + 1;
@@ -166,8 +175,8 @@ TetMeshPtr read_vtk_scanner(TextScanner& in, TetMeshReadReport* report) {
         break;  // other cell data is not ours to read
       }
       expect_keyword(in, in.next_line("LOOKUP_TABLE").tokens[0], "LOOKUP_TABLE");
-      std::vector<int> values(static_cast<size_t>(n));
-      for (auto& v : values) v = static_cast<int>(in.parse_int(in.next_token("a cell tag"), "cell tag"));
+      std::vector<int> values;
+      for (long i = 0; i < n; ++i) values.push_back(static_cast<int>(in.parse_int(in.next_token("a cell tag"), "cell tag")));
       for (long c : tet_cells) data.tet_tags.push_back(values[static_cast<size_t>(c)]);
       break;
     } else if (have_points && have_cells && have_types) {
