@@ -29,12 +29,17 @@ struct KinematicReaction {
   Vec3 torque = Vec3::Zero();  ///< N m, about the body's pose origin
 };
 
-/// Total contact force between two bodies (on body_a; body_b gets the opposite).
+/// Total contact force between two bodies over a step.
 struct PairContactForce {
   int body_a = -1;
   int body_b = -1;
-  Vec3 force_on_a = Vec3::Zero();
-  Vec3 force_on_b = Vec3::Zero();
+  Vec3 force_on_a = Vec3::Zero();  ///< N, contact impulses on a / dt (equal and opposite to b's)
+  Vec3 force_on_b = Vec3::Zero();  ///< N
+  /// N, the restoring forces each body's own elasticity exerts through its displaced surface
+  /// vertices (contact-surface method only). They cancel to the accuracy of the pressure balance:
+  /// |elastic_on_a + elastic_on_b| / max(|.|) measures how well Newton's third law holds.
+  Vec3 elastic_on_a = Vec3::Zero();
+  Vec3 elastic_on_b = Vec3::Zero();
   int contacts = 0;
 };
 

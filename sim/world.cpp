@@ -296,10 +296,10 @@ void World::respond(double dt) {
   if (contacts_.empty()) return;
   switch (settings_.contact.method) {
     case ContactMethod::contact_surface:
-      contact_surface_->respond(body_view_, contacts_, dt, settings_.gravity, settings_.contact, report_);
+      contact_surface_->respond(body_view_, contacts_, dt, settings_.contact, report_);
       break;
     case ContactMethod::penalty:
-      penalty_->respond(body_view_, contacts_, dt, settings_.gravity, settings_.contact, report_);
+      penalty_->respond(body_view_, contacts_, dt, settings_.contact, report_);
       break;
     case ContactMethod::none:
       for (const auto& c : contacts_) {

@@ -16,10 +16,9 @@ class ContactResponse {
   virtual ~ContactResponse() = default;
   /// Resolves `contacts` by changing positions and velocities of the deformable bodies, and fills
   /// the respond fields of `report` (reactions, pair forces, residual overlap, pressure imbalance).
-  /// `bodies` is indexed by body slot; null for empty slots. `gravity` (m/s^2) enters the
-  /// quasi-static contact force reported for each vertex.
+  /// `bodies` is indexed by body slot; null for empty slots.
   virtual void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-                       const Vec3& gravity, const ContactSettings& settings, StepReport& report) = 0;
+                       const ContactSettings& settings, StepReport& report) = 0;
 };
 
 }  // namespace pliant

@@ -8,9 +8,9 @@
 //      colliding vertex exactly into the plane of its displaced contact triangle, splitting each
 //      correction between the two sides in the ratio the search found;
 //   4. velocity update and Coulomb friction (stage 5, contact_velocity_update.cpp);
-//   5. contact forces: on each displaced vertex the quasi-static force that holds it on the
-//      contact surface, c_v = max(0, -(f_v + f_ext,v).s^) s^, plus friction impulses / dt;
-//      reactions on kinematic bodies, per-pair forces, residual overlap, pressure imbalance.
+//   5. contact forces from the stage-5 impulses over dt (normal and friction): reactions on
+//      kinematic bodies (the haptic force), per-pair forces; beside them each side's elastic
+//      restoring force, residual overlap and pressure imbalance.
 #include "sim/contact/contact_surface_response.h"
 
 #include <algorithm>
@@ -113,7 +113,7 @@ void finishing_projection(std::span<Body* const> bodies, std::span<const VertexC
 }  // namespace
 
 void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
-                                     double dt, const Vec3& gravity, const ContactSettings& settings,
+                                     double dt, const ContactSettings& settings,
                                      StepReport& report) {
   // Stage 3: deformation region and displacement vectors.
   region_.build(bodies, contacts);
@@ -155,14 +155,16 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Stage 5: velocities and friction.
   apply_contact_velocity_update(bodies, contacts, dt, settings.friction, impulses_);
 
-  // Contact force on each displaced vertex, credited against its partners' bodies.
+  // Contact forces are the stage-5 impulses over dt: equal and opposite on the two sides of each
+  // contact, and exactly the weight for a body resting on a floor. Beside them, each side's own
+  // elastic restoring force through its displaced surface measures the pressure balance.
   std::map<std::pair<int, int>, PairContactForce> pairs;
-  auto add_pair_force = [&](int on_body, int from_body, const Vec3& f) {
-    const int a = std::min(on_body, from_body), b = std::max(on_body, from_body);
+  auto pair_of = [&](int p, int q) -> PairContactForce& {
+    const int a = std::min(p, q), b = std::max(p, q);
     auto& pair = pairs[{a, b}];
     pair.body_a = a;
     pair.body_b = b;
-    (on_body == a ? pair.force_on_a : pair.force_on_b) += f;
+    return pair;
   };
   auto add_reaction = [&](int kinematic_body, const Vec3& point, const Vec3& f_on_kinematic) {
     for (auto& r : report.reactions) {
@@ -172,54 +174,39 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       r.torque += (point - k.pose.translation).cross(f_on_kinematic);
     }
   };
-  for (const auto& g : region_.groups()) {
-    const Body& body = *bodies[static_cast<size_t>(g.body)];
-    for (size_t i = 0; i < g.vertices.size(); ++i) {
-      const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-      const double len = v.displacement.norm();
-      if (len <= 0.0 || v.partner_count == 0) continue;
-      const Vec3 dir = v.displacement / len;
-      const auto vi = static_cast<size_t>(v.vertex);
-      const Vec3 external = body.masses[vi] * gravity + body.applied_forces[vi];
-      const Vec3 contact_force = std::max(0.0, -(g.forces[i] + external).dot(dir)) * dir;
-      report.total_contact_force += contact_force.norm();
-      // Split over the partners' bodies by weight.
-      double weights = 0.0;
-      for (const auto& p : region_.partners_of(v)) weights += p.weight;
-      for (const auto& p : region_.partners_of(v)) {
-        const auto& partner = vertices[static_cast<size_t>(p.region_vertex)];
-        const Vec3 share = (p.weight / weights) * contact_force;
-        add_pair_force(v.body, partner.body, share);
-        const Body& pb = *bodies[static_cast<size_t>(partner.body)];
-        if (pb.is_kinematic()) add_reaction(partner.body, body.positions[vi], -share);
-      }
-    }
-  }
-  // Friction impulses act between the colliding vertex and its contact triangle.
   for (size_t c = 0; c < contacts.size(); ++c) {
-    const Vec3 f = impulses_[c].friction / dt;
-    if (f.squaredNorm() == 0.0) continue;
     const auto& contact = contacts[c];
-    add_pair_force(contact.body, contact.penetrated_body, f);
-    add_pair_force(contact.penetrated_body, contact.body, -f);
+    const Vec3 f = (impulses_[c].normal + impulses_[c].friction) / dt;  // on the colliding vertex
+    report.total_contact_force += f.norm();
+    PairContactForce& pair = pair_of(contact.body, contact.penetrated_body);
+    pair.contacts++;
+    (pair.body_a == contact.body ? pair.force_on_a : pair.force_on_b) += f;
+    (pair.body_a == contact.body ? pair.force_on_b : pair.force_on_a) -= f;
     const Body& m = *bodies[static_cast<size_t>(contact.body)];
     const Body& n = *bodies[static_cast<size_t>(contact.penetrated_body)];
     if (m.is_kinematic()) add_reaction(contact.body, m.positions[static_cast<size_t>(contact.vertex)], f);
     if (n.is_kinematic()) add_reaction(contact.penetrated_body, contact.contact_point, -f);
   }
-  for (auto& [key, pair] : pairs) {
-    pair.contacts = 0;
-    report.pair_forces.push_back(pair);
-  }
-  for (size_t c = 0; c < contacts.size(); ++c) {
-    const auto& contact = contacts[c];
-    for (auto& pair : report.pair_forces) {
-      if ((pair.body_a == contact.body && pair.body_b == contact.penetrated_body) ||
-          (pair.body_b == contact.body && pair.body_a == contact.penetrated_body)) {
-        pair.contacts++;
+  for (const auto& g : region_.groups()) {
+    for (size_t i = 0; i < g.vertices.size(); ++i) {
+      const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+      const double len = v.displacement.norm();
+      if (len <= 0.0 || v.partner_count == 0) continue;
+      const Vec3 dir = v.displacement / len;
+      const Vec3 restoring = std::max(0.0, -g.forces[i].dot(dir)) * dir;  // pushes the other body away
+      double weights = 0.0;
+      for (const auto& p : region_.partners_of(v)) weights += p.weight;
+      for (const auto& p : region_.partners_of(v)) {
+        const int other = vertices[static_cast<size_t>(p.region_vertex)].body;
+        PairContactForce& pair = pair_of(v.body, other);
+        // The elastic force of v's body acts on the other body, against its own displacement.
+        (pair.body_a == other ? pair.elastic_on_a : pair.elastic_on_b) -= (p.weight / weights) * restoring;
       }
     }
-    report.max_residual_overlap = std::max(report.max_residual_overlap, contact_overlap(bodies, contact));
+  }
+  for (auto& [key, pair] : pairs) report.pair_forces.push_back(pair);
+  for (size_t c = 0; c < contacts.size(); ++c) {
+    report.max_residual_overlap = std::max(report.max_residual_overlap, contact_overlap(bodies, contacts[c]));
   }
 }
 

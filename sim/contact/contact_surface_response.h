@@ -14,7 +14,7 @@ namespace pliant {
 class ContactSurfaceResponse final : public ContactResponse {
  public:
   void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-               const Vec3& gravity, const ContactSettings& settings, StepReport& report) override;
+               const ContactSettings& settings, StepReport& report) override;
 
  private:
   DeformationRegion region_;              ///< stage 3 result, reused across steps

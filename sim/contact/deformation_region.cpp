@@ -4,6 +4,21 @@
 
 namespace pliant {
 
+double comparison_area(const Body& body, int vertex, const Vec3& displacement) {
+  const TetMesh& mesh = *body.mesh;
+  const double len = displacement.norm();
+  double projected = 0.0;
+  if (len > 0.0) {
+    const Vec3 dir = displacement / len;
+    for (int t : mesh.vertex_surface_triangles(vertex)) {
+      const double facing = -mesh.triangle_normal(body.positions, t).dot(dir);
+      if (facing > 0.0) projected += facing * mesh.triangle_area(body.positions, t);
+    }
+  }
+  projected /= 3.0;
+  return projected > 0.0 ? projected : mesh.vertex_surface_area(body.positions, vertex);
+}
+
 int DeformationRegion::find(int body, int vertex) const {
   const auto b = static_cast<size_t>(body);
   if (b >= index_of_.size() || index_of_[b].empty()) return -1;
@@ -22,7 +37,6 @@ int DeformationRegion::add_vertex(std::span<Body* const> bodies, int body, int v
     dv.vertex = vertex;
     dv.rest_of_step = b.positions[static_cast<size_t>(vertex)];
     dv.immovable = b.is_immovable(vertex);
-    dv.area = b.mesh->vertex_surface_area(b.positions, vertex);
     vertices_.push_back(dv);
   }
   return slot;
@@ -102,7 +116,9 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
 
   for (size_t i = 0; i < vertices_.size(); ++i) {
     auto& v = vertices_[i];
+    if (!v.colliding) denominator[i] += 1.0;  // Eq. 1's "+1" with d = 0
     v.displacement = denominator[i] > 0.0 ? Vec3(numerator[i] / denominator[i]) : Vec3::Zero();
+    v.area = comparison_area(*bodies[static_cast<size_t>(v.body)], v.vertex, v.displacement);
     for (const auto& p : partners_of(v)) {
       if (vertices_[static_cast<size_t>(p.region_vertex)].immovable) v.rigid_partner = true;
     }

@@ -20,6 +20,13 @@
 
 namespace pliant {
 
+/// The area a vertex's force acts on, for pressure (section 4.4.3, [open] in algorithms.md): one
+/// third of its adjacent surface triangles, each projected onto the plane normal to the vertex's
+/// displacement (triangles facing away count nothing). Projection keeps a rim vertex's side faces
+/// from diluting its pressure; one third keeps bodies meshed at different densities comparable.
+/// Falls back to the unprojected share when nothing faces the displacement.
+double comparison_area(const Body& body, int vertex, const Vec3& displacement);
+
 /// One vertex of the deformation region.
 struct DisplacementVertex {
   int body = -1;
@@ -27,7 +34,7 @@ struct DisplacementVertex {
   Vec3 rest_of_step = Vec3::Zero();  ///< x before the response (m)
   Vec3 displacement = Vec3::Zero();  ///< s, Eq. 1 (m)
   double fraction = 0.0;             ///< lambda: the vertex sits at x + lambda s
-  double area = 0.0;                 ///< comparison area share (m^2): 1/3 of adjacent surface triangles
+  double area = 0.0;                 ///< comparison area (m^2), see comparison_area()
   double pressure = 0.0;             ///< elastic restoring pressure along s (Pa), from the last evaluation
   bool immovable = false;            ///< kinematic body or fixed vertex: never displaced
   bool rigid_partner = false;        ///< touches an immovable vertex: takes the whole displacement

@@ -21,7 +21,7 @@ Vec3 apply_force(Body& body, int v, const Vec3& f, double dt) {
 }  // namespace
 
 void PenaltyResponse::respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-                              const Vec3& /*gravity*/, const ContactSettings& settings, StepReport& report) {
+                              const ContactSettings& settings, StepReport& report) {
   std::map<std::pair<int, int>, PairContactForce> pairs;
   for (const auto& c : contacts) {
     Body& m = *bodies[static_cast<size_t>(c.body)];

@@ -10,7 +10,7 @@ namespace pliant {
 class PenaltyResponse final : public ContactResponse {
  public:
   void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-               const Vec3& gravity, const ContactSettings& settings, StepReport& report) override;
+               const ContactSettings& settings, StepReport& report) override;
 };
 
 }  // namespace pliant
