@@ -14,7 +14,13 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
   Surface& s = surfaces_[static_cast<size_t>(body)];
   if (s.built_in_call != call_) {
     const CollisionBody& cb = bodies[static_cast<size_t>(body)];
-    s.bvh.build(*cb.mesh, cb.positions);
+    if (s.bvh.mesh() != cb.mesh || s.refits + 1 >= options_.bvh_rebuild_interval) {
+      s.bvh.build(*cb.mesh, cb.positions);
+      s.refits = 0;
+    } else {
+      s.bvh.refit(cb.positions);
+      ++s.refits;
+    }
     s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
     cb.mesh->vertex_normals(cb.positions, s.vertex_normals);
     s.built_in_call = call_;
@@ -126,16 +132,11 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     for (int q : mesh.vertex_neighbors(c.vertex)) {
       if (slot_of(q) >= 0) continue;
       ++stats_.edge_intersections;
-      // Keep the intersection nearest the non-colliding end q (largest t along p -> q).
+      // Keep the intersection nearest the non-colliding end q: the first hit of the ray from q
+      // towards p, t in [0, 1] (nearest-first traversal prunes the rest of the surface).
+      const Vec3& xq = x[static_cast<size_t>(q)];
       SurfacePoint best;
-      bool hit = false;
-      surface.bvh.for_each_segment_hit(p, x[static_cast<size_t>(q)], self ? c.vertex : -1, self ? q : -1,
-                                       [&](const SurfacePoint& s) {
-                                         if (!hit || s.t > best.t || (s.t == best.t && s.triangle < best.triangle)) {
-                                           best = s;
-                                           hit = true;
-                                         }
-                                       });
+      const bool hit = surface.bvh.first_ray_hit(xq, p - xq, self ? q : -1, best, 1.0, self ? c.vertex : -1);
       if (!hit) continue;
       const Vec3 normal = smoothed_normal(surface, best);
       const double d2 = (best.point - p).squaredNorm();

@@ -23,6 +23,12 @@
 
 namespace pliant {
 
+/// Tuning of stage 2.
+struct PenetrationDepthOptions {
+  /// A penetrated body's surface hierarchy is rebuilt after this many refits (1: every step).
+  int bvh_rebuild_interval = 16;
+};
+
 /// What the last compute() did (for tests, benchmarks and diagnostics).
 struct PenetrationDepthStats {
   int border_points = 0;            ///< depth from edge intersections (layer 0)
@@ -38,6 +44,10 @@ struct PenetrationDepthStats {
 
 class PenetrationDepthSolver {
  public:
+  PenetrationDepthSolver() = default;
+  /// A solver with non-default tuning.
+  explicit PenetrationDepthSolver(const PenetrationDepthOptions& options) : options_(options) {}
+
   /// Depth, direction and contact triangle for every colliding vertex in `colliding`.
   /// `out` is cleared first and gets one entry per colliding vertex (same order), except vertices
   /// for which no contact triangle exists at all (documented in docs/penetration-depth.md).
@@ -52,7 +62,8 @@ class PenetrationDepthSolver {
   struct Surface {
     SurfaceBvh bvh;
     std::vector<Vec3> vertex_normals;
-    std::uint64_t built_in_call = 0;  ///< call counter value when last built
+    std::uint64_t built_in_call = 0;  ///< call counter value when last built or refitted
+    int refits = 0;                   ///< refits since the last full build
   };
 
   Surface& surface_of(std::span<const CollisionBody> bodies, int body);
@@ -60,6 +71,7 @@ class PenetrationDepthSolver {
                    std::span<const int> group);
   Vec3 smoothed_normal(const Surface& surface, const SurfacePoint& hit) const;
 
+  PenetrationDepthOptions options_;
   PenetrationDepthStats stats_;
   std::uint64_t call_ = 0;
   std::vector<Surface> surfaces_;             ///< per body index

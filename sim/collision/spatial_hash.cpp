@@ -91,13 +91,12 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       next_prime(static_cast<std::uint64_t>(options_.table_size_factor * static_cast<double>(vertex_total)) + 1);
   if (table_size_ < wanted) {
     table_size_ = wanted;
-    bucket_stamp_.assign(wanted, 0u);
-    bucket_head_.assign(wanted, -1);
+    buckets_.assign(wanted, Bucket{0u, -1});
     stamp_ = 0;
   }
   const std::uint64_t n = table_size_;
   if (++stamp_ == 0) {  // wrapped around after 2^32 steps: clear once
-    std::fill(bucket_stamp_.begin(), bucket_stamp_.end(), 0u);
+    std::fill(buckets_.begin(), buckets_.end(), Bucket{0u, -1});
     stamp_ = 1;
   }
   stats_.hashed_vertices = vertex_total;
@@ -118,12 +117,13 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       HashedVertex hv{x, {cell_coordinate(x.x(), inv_l), cell_coordinate(x.y(), inv_l),
                           cell_coordinate(x.z(), inv_l)}, a, v, -1};
       const auto h = static_cast<size_t>(hash_cell(hv.cell[0], hv.cell[1], hv.cell[2], n));
-      if (bucket_stamp_[h] != stamp_) {
-        bucket_stamp_[h] = stamp_;
-        bucket_head_[h] = -1;
+      Bucket& bucket = buckets_[h];
+      if (bucket.stamp != stamp_) {
+        bucket.stamp = stamp_;
+        bucket.head = -1;
       }
-      hv.next = bucket_head_[h];
-      bucket_head_[h] = static_cast<int>(hashed_.size());
+      hv.next = bucket.head;
+      bucket.head = static_cast<int>(hashed_.size());
       hashed_.push_back(hv);
     }
   }
@@ -190,8 +190,9 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
           for (int k = k0; k <= k1; ++k) {
             ++stats_.cells_visited;
             const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
-            if (bucket_stamp_[h] != stamp_) continue;
-            for (int e = bucket_head_[h]; e >= 0; e = hashed_[static_cast<size_t>(e)].next) {
+            const Bucket& bucket = buckets_[h];
+            if (bucket.stamp != stamp_) continue;
+            for (int e = bucket.head; e >= 0; e = hashed_[static_cast<size_t>(e)].next) {
               const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
               // Another cell hashed to this bucket: its vertices are found (or not) from that cell.
               if (hv.cell[0] != i || hv.cell[1] != j || hv.cell[2] != k) continue;

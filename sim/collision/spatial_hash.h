@@ -77,8 +77,12 @@ class SpatialHash {
   SpatialHashStats stats_;
   std::uint32_t stamp_ = 0;
   std::uint64_t table_size_ = 0;  ///< current prime table size; grows, never shrinks
-  std::vector<std::uint32_t> bucket_stamp_;
-  std::vector<int> bucket_head_;
+  /// One bucket: the step stamp of its last insert and the head of its list (one cache line read).
+  struct Bucket {
+    std::uint32_t stamp;
+    int head;
+  };
+  std::vector<Bucket> buckets_;
   std::vector<HashedVertex> hashed_;
   std::vector<char> hashes_vertices_;   ///< per body: its vertices go into the table
   std::vector<char> has_tets_;          ///< per body: its tets are tested in pass 2

@@ -8,26 +8,40 @@
 namespace pliant {
 namespace {
 
-// Slab test of origin + t dir against box for t in [0, t_max]; entry parameter in t_enter.
-// Direction components below 1e-30 count as zero (no division, so no overflow trap).
-bool ray_box(const Vec3& origin, const Vec3& dir, const Aabb& box, double t_max, double& t_enter) {
-  double t0 = 0.0;
-  double t1 = t_max;
-  for (int k = 0; k < 3; ++k) {
-    if (std::abs(dir[k]) < 1e-30) {
-      if (origin[k] < box.min[k] || origin[k] > box.max[k]) return false;
-      continue;
+// A ray with its reciprocal direction precomputed for slab tests. Direction components below 1e-30
+// count as zero (no division, so no overflow or divide-by-zero trap).
+struct SlabRay {
+  Vec3 origin;
+  Vec3 inv = Vec3::Zero();
+  bool parallel[3] = {false, false, false};
+
+  SlabRay(const Vec3& o, const Vec3& d) : origin(o) {
+    for (int k = 0; k < 3; ++k) {
+      parallel[k] = std::abs(d[k]) < 1e-30;
+      if (!parallel[k]) inv[k] = 1.0 / d[k];
     }
-    double ta = (box.min[k] - origin[k]) / dir[k];
-    double tb = (box.max[k] - origin[k]) / dir[k];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-    if (t0 > t1) return false;
   }
-  t_enter = t0;
-  return true;
-}
+
+  // Does origin + t dir meet box for some t in [0, t_max]? Entry parameter in t_enter.
+  bool hits(const Aabb& box, double t_max, double& t_enter) const {
+    double t0 = 0.0;
+    double t1 = t_max;
+    for (int k = 0; k < 3; ++k) {
+      if (parallel[k]) {
+        if (origin[k] < box.min[k] || origin[k] > box.max[k]) return false;
+        continue;
+      }
+      double ta = (box.min[k] - origin[k]) * inv[k];
+      double tb = (box.max[k] - origin[k]) * inv[k];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      if (t0 > t1) return false;
+    }
+    t_enter = t0;
+    return true;
+  }
+};
 
 // Squared distance from p to box (0 inside).
 double box_distance_squared(const Vec3& p, const Aabb& box) {
@@ -55,6 +69,35 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   if (n == 0) return;
   nodes_.reserve(static_cast<size_t>(2 * (n / kLeafSize + 1)));
   build_node(0, n, 0);
+}
+
+void SurfaceBvh::refit(std::span<const Vec3> x) {
+  assert(mesh_ != nullptr);
+  x_ = x;
+  const int n = mesh_->surface_triangle_count();
+  for (int t = 0; t < n; ++t) {
+    Aabb box;
+    for (int k = 0; k < 3; ++k) box.extend(corner(t, k));
+    boxes_[static_cast<size_t>(t)] = box;
+  }
+  // Children come after their parent in depth-first order: a reverse sweep refits bottom-up.
+  for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
+    Node& node = nodes_[static_cast<size_t>(i)];
+    Aabb box;
+    if (node.count > 0) {
+      for (int j = node.first; j < node.first + node.count; ++j) {
+        const Aabb& b = boxes_[static_cast<size_t>(order_[static_cast<size_t>(j)])];
+        box.extend(b.min);
+        box.extend(b.max);
+      }
+    } else {
+      for (const int c : {i + 1, node.first}) {
+        box.extend(nodes_[static_cast<size_t>(c)].box.min);
+        box.extend(nodes_[static_cast<size_t>(c)].box.max);
+      }
+    }
+    node.box = box;
+  }
 }
 
 int SurfaceBvh::build_node(int begin, int end, int depth) {
@@ -89,47 +132,53 @@ int SurfaceBvh::build_node(int begin, int end, int depth) {
   return index;
 }
 
-bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude, SurfacePoint& hit) const {
+bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_a, SurfacePoint& hit,
+                               double t_max, int exclude_b) const {
   if (nodes_.empty()) return false;
-  double best_t = std::numeric_limits<double>::max();
+  const SlabRay ray(origin, dir);
+  double best_t = t_max;
   int best_tri = -1;
   Vec3 best_bary = Vec3::Zero();
+  // Stack entries carry their entry parameter: a node is tested once, when its parent is popped.
   int stack[kMaxStack];
+  double stack_t[kMaxStack];
   int top = 0;
   double t_enter = 0.0;
-  if (!ray_box(origin, dir, nodes_[0].box, best_t, t_enter)) return false;
-  stack[top++] = 0;
+  if (!ray.hits(nodes_[0].box, best_t, t_enter)) return false;
+  stack[top] = 0;
+  stack_t[top++] = t_enter;
   while (top > 0) {
-    const int n = stack[--top];
+    --top;
+    const int n = stack[top];
+    if (stack_t[top] > best_t) continue;  // a nearer hit was found since it was pushed
     const Node& node = nodes_[static_cast<size_t>(n)];
-    if (!ray_box(origin, dir, node.box, best_t, t_enter)) continue;
     if (node.count == 0) {
       // Visit the nearer child first (pushed last).
       const int l = n + 1, r = node.first;
       double tl = 0.0, tr = 0.0;
-      const bool hl = ray_box(origin, dir, nodes_[static_cast<size_t>(l)].box, best_t, tl);
-      const bool hr = ray_box(origin, dir, nodes_[static_cast<size_t>(r)].box, best_t, tr);
+      const bool hl = ray.hits(nodes_[static_cast<size_t>(l)].box, best_t, tl);
+      const bool hr = ray.hits(nodes_[static_cast<size_t>(r)].box, best_t, tr);
       if (hl && hr) {
-        if (tl <= tr) {
-          stack[top++] = r;
-          stack[top++] = l;
-        } else {
-          stack[top++] = l;
-          stack[top++] = r;
-        }
+        const bool left_first = tl <= tr;
+        stack[top] = left_first ? r : l;
+        stack_t[top++] = left_first ? tr : tl;
+        stack[top] = left_first ? l : r;
+        stack_t[top++] = left_first ? tl : tr;
       } else if (hl) {
-        stack[top++] = l;
+        stack[top] = l;
+        stack_t[top++] = tl;
       } else if (hr) {
-        stack[top++] = r;
+        stack[top] = r;
+        stack_t[top++] = tr;
       }
       continue;
     }
     for (int i = node.first; i < node.first + node.count; ++i) {
       const int tri = order_[static_cast<size_t>(i)];
-      if (excluded(tri, exclude, -1)) continue;
+      if (excluded(tri, exclude_a, exclude_b)) continue;
       TriangleHit h;
       if (ray_triangle_intersection(origin, dir, corner(tri, 0), corner(tri, 1), corner(tri, 2), 0.0, best_t, h)) {
-        if (h.t < best_t || (h.t == best_t && tri < best_tri)) {
+        if (best_tri < 0 || h.t < best_t || (h.t == best_t && tri < best_tri)) {
           best_t = h.t;
           best_tri = tri;
           best_bary = h.barycentric;

@@ -3,12 +3,14 @@
 // point). Rebuilt each step for every penetrated body; buffers are reused, so a rebuild allocates
 // nothing once they have grown.
 //
-// Design note. Median split on the longest axis of the triangle centroids, up to 4 triangles per
+// Design note. Built per penetrated body and refitted (boxes recomputed bottom-up) on later steps;
+// rebuilt when the mesh changes or every few steps (PenetrationDepthOptions). Median split on the longest axis of the triangle centroids, up to 4 triangles per
 // leaf, nodes in depth-first order (left child follows its parent). Queries keep an explicit stack
 // of fixed size (the median split bounds the depth by log2 of the triangle count). Ties between
 // equally near triangles go to the smaller triangle index, so results do not depend on the tree.
 #pragma once
 
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -30,15 +32,19 @@ class SurfaceBvh {
  public:
   /// Builds the hierarchy over mesh's surface triangles at positions x (which must outlive queries).
   void build(const TetMesh& mesh, std::span<const Vec3> x);
+  /// Keeps the tree of the last build() and recomputes its boxes for new positions x of the same
+  /// mesh: O(n), always correct, slower queries as the surface deforms away from the build pose.
+  void refit(std::span<const Vec3> x);
 
   /// Calls visit(point) for every surface triangle crossed by the segment a + t (b - a), t in [0,1],
   /// skipping triangles that contain vertex exclude_a or exclude_b (-1: none).
   template <class Visit>
   void for_each_segment_hit(const Vec3& a, const Vec3& b, int exclude_a, int exclude_b, Visit&& visit) const;
 
-  /// First triangle hit by origin + t dir, t >= 0 (smallest t); false if the ray misses. Triangles
-  /// containing vertex `exclude` (-1: none) are skipped.
-  bool first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude, SurfacePoint& hit) const;
+  /// First triangle hit by origin + t dir, t in [0, t_max] (smallest t); false if the ray misses.
+  /// Triangles containing vertex exclude_a or exclude_b (-1: none) are skipped.
+  bool first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_a, SurfacePoint& hit,
+                     double t_max = std::numeric_limits<double>::max(), int exclude_b = -1) const;
 
   /// Closest point of the surface to p; false only if no triangle is eligible. Triangles containing
   /// vertex `exclude` (-1: none) are skipped.

@@ -1,0 +1,145 @@
+// Stage 1 and 2 timings: spatial-hash detection vs number of tets (1k..200k, many bodies), brute
+// force at small sizes, and penetration depth per colliding point. Compare with Teschner et al. 2003
+// (algorithms.md section 1) and Heidelberger et al. 2004 (about 35 us per colliding point).
+//
+//   build-collision/bench/collision_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+//
+// Scenes: boxes of 4x4x4 Kuhn cells (384 tets, 125 vertices, 1 m edge).
+//  - pairs: bodies in overlapping pairs (0.25 m overlap, small random rotations), pairs 1.5 m apart
+//    on a lattice: the contact density per tet is the same at every size, so the log-log slope
+//    measures the algorithm, not the scene.
+//  - heap: every body on a 0.9 m lattice overlaps all its lattice neighbours; interior bodies have
+//    more partners than boundary ones, so contacts per tet grow with the size.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "sim/collision/penetration_depth.h"
+#include "sim/collision/spatial_hash.h"
+#include "sim/collision/tet_barycentric.h"
+#include "sim/mesh/box_mesh.h"
+
+namespace pliant {
+namespace {
+
+struct HeapScene {
+  TetMeshPtr mesh;
+  std::vector<std::vector<Vec3>> positions;
+  std::vector<CollisionBody> bodies;
+  CollisionFilter filter;
+  int tets = 0;
+  int vertices = 0;
+};
+
+// About `target_tets` tets in overlapping boxes: overlapping pairs (pairs = true) or a heap.
+HeapScene make_heap(int target_tets, int cells = 4, bool pairs = false) {
+  HeapScene s;
+  s.mesh = make_box_mesh({Vec3::Ones(), cells, cells, cells});
+  const int count = std::max(1, static_cast<int>(std::lround(target_tets / static_cast<double>(s.mesh->tet_count()))));
+  const int side = static_cast<int>(std::ceil(std::cbrt(static_cast<double>(count))));
+  std::mt19937 rng(42);
+  std::normal_distribution<double> g(0.0, 0.1);
+  for (int b = 0; b < count; ++b) {
+    Vec3 centre(0.9 * (b % side), 0.9 * ((b / side) % side), 0.9 * (b / (side * side)));
+    if (pairs) {
+      const int p = b / 2;
+      const int pair_side = static_cast<int>(std::ceil(std::cbrt(static_cast<double>((count + 1) / 2))));
+      centre = Vec3(2.5 * (p % pair_side), 2.5 * ((p / pair_side) % pair_side), 2.5 * (p / (pair_side * pair_side)));
+      if (b % 2 == 1) centre += Vec3(0.75, 0.1, 0.05);
+    }
+    const Quat q(Eigen::AngleAxisd(g(rng), Vec3(g(rng), g(rng), 1.0).normalized()));
+    std::vector<Vec3> x;
+    for (const Vec3& p : s.mesh->rest_positions()) x.push_back(q * p + centre);
+    s.positions.push_back(std::move(x));
+  }
+  for (int b = 0; b < count; ++b) {
+    CollisionBody cb;
+    cb.mesh = s.mesh.get();
+    cb.positions = s.positions[static_cast<size_t>(b)];
+    s.bodies.push_back(cb);
+  }
+  s.filter = CollisionFilter::from_bodies(s.bodies);
+  s.tets = count * s.mesh->tet_count();
+  s.vertices = count * s.mesh->vertex_count();
+  return s;
+}
+
+void set_counters(benchmark::State& state, const HeapScene& s, size_t colliding) {
+  state.counters["tets"] = s.tets;
+  state.counters["vertices"] = s.vertices;
+  state.counters["bodies"] = static_cast<double>(s.bodies.size());
+  state.counters["colliding"] = static_cast<double>(colliding);
+  state.counters["time_per_tet"] = benchmark::Counter(s.tets, benchmark::Counter::kIsIterationInvariantRate |
+                                                                  benchmark::Counter::kInvert);
+}
+
+void BM_SpatialHashDetect(benchmark::State& state) {
+  const HeapScene s = make_heap(static_cast<int>(state.range(0)), 4, state.range(1) != 0);
+  SpatialHash hash;
+  std::vector<VertexInTet> out;
+  hash.detect(s.bodies, s.filter, out);  // warm-up: buffers grow once
+  for (auto _ : state) {
+    hash.detect(s.bodies, s.filter, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  set_counters(state, s, out.size());
+}
+BENCHMARK(BM_SpatialHashDetect)
+    ->ArgsProduct({{1000, 2000, 5000, 10000, 20000, 50000, 100000, 200000}, {1, 0}})
+    ->ArgNames({"tets", "pairs"})
+    ->Unit(benchmark::kMillisecond);
+
+// The oracle: every vertex against every tet of every allowed body (AABB, then barycentric).
+void BM_BruteForceDetect(benchmark::State& state) {
+  const HeapScene s = make_heap(static_cast<int>(state.range(0)), 4, true);
+  size_t found = 0;
+  for (auto _ : state) {
+    found = 0;
+    for (size_t b = 0; b < s.bodies.size(); ++b) {
+      const auto& x = s.positions[b];
+      for (const auto& tet : s.mesh->tets()) {
+        const auto f = TetBarycentricFrame::of(x[static_cast<size_t>(tet[0])], x[static_cast<size_t>(tet[1])],
+                                               x[static_cast<size_t>(tet[2])], x[static_cast<size_t>(tet[3])]);
+        for (size_t a = 0; a < s.bodies.size(); ++a) {
+          if (!s.filter.allowed(static_cast<int>(a), static_cast<int>(b))) continue;
+          for (const Vec3& p : s.positions[a]) found += f.contains(p) ? 1 : 0;
+        }
+      }
+    }
+    benchmark::DoNotOptimize(found);
+  }
+  set_counters(state, s, found);
+}
+BENCHMARK(BM_BruteForceDetect)->Arg(1000)->Arg(2000)->Arg(5000)->Arg(10000)->ArgName("tets")
+    ->Unit(benchmark::kMillisecond);
+
+// Stage 2 on the heap's colliding vertices: time per colliding point (includes the per-step BVH
+// builds of the penetrated bodies' surfaces and their vertex normals).
+void BM_PenetrationDepth(benchmark::State& state) {
+  const HeapScene s = make_heap(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true);
+  SpatialHash hash;
+  std::vector<VertexInTet> colliding;
+  hash.detect(s.bodies, s.filter, colliding);
+  PenetrationDepthSolver solver;
+  std::vector<VertexContact> contacts;
+  solver.compute(s.bodies, colliding, contacts);
+  for (auto _ : state) {
+    solver.compute(s.bodies, colliding, contacts);
+    benchmark::DoNotOptimize(contacts.data());
+  }
+  set_counters(state, s, colliding.size());
+  const auto& st = solver.stats();
+  state.counters["border"] = st.border_points;
+  state.counters["propagated"] = st.propagated_points;
+  state.counters["enclosed"] = st.enclosed_fallback_points;
+  state.counters["edges_per_point"] = static_cast<double>(st.edge_intersections) / static_cast<double>(colliding.size());
+  state.counters["time_per_point"] = benchmark::Counter(static_cast<double>(colliding.size()),
+                                                        benchmark::Counter::kIsIterationInvariantRate |
+                                                            benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_PenetrationDepth)->Args({10000, 4})->Args({100000, 4})->Args({100000, 8})
+    ->ArgNames({"tets", "cells"})->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace pliant
