@@ -1,7 +1,9 @@
 #include "interaction/instrument_meshes.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 
 #include "sim/mesh/box_mesh.h"
 
@@ -25,12 +27,70 @@ Vec3 cube_to_sphere(const Vec3& u) {
 }  // namespace
 
 RawTetMesh ball_tets(double radius, int cells, const Vec3& center) {
-  cells = std::max(cells, 2);
-  RawTetMesh raw = kuhn_box(Vec3::Constant(2.0), cells, cells, cells);
-  for (Vec3& p : raw.positions) {
-    // Shell |p|_inf = s goes to the sphere of radius s.
-    const double s = p.cwiseAbs().maxCoeff();
-    p = s > 0.0 ? Vec3(center + radius * s * cube_to_sphere(p / s)) : center;
+  // An inner cube of half-size kInner * radius (Kuhn cells) inside a shell of six blocks of
+  // hexahedra between the cube's faces and the sphere (cube-sphere map), split into Kuhn tets.
+  // Every shell tet spans two radial layers, so none has all four vertices on the sphere (a
+  // Kuhn-cube-then-project ball does, and its corner tets become slivers as cells shrink).
+  // Local axes of each block are the two other global axes in increasing order plus the outward
+  // radius, so the face diagonals of neighbouring cells agree everywhere (conforming mesh).
+  constexpr double kInner = 0.35;
+  const int n = std::max(cells, 2);
+  const int layers = std::max(1, static_cast<int>(std::lround((1.0 - kInner) / (2.0 * kInner / n))));
+  const auto grid = [n](int i) { return -1.0 + 2.0 * i / n; };
+  RawTetMesh raw;
+  std::map<std::array<int, 4>, int> index;  // (I, J, K, layer) -> vertex
+  const auto vertex = [&](int i, int j, int k, int layer) {
+    const std::array<int, 4> key{i, j, k, layer};
+    auto [it, inserted] = index.try_emplace(key, static_cast<int>(raw.positions.size()));
+    if (inserted) {
+      const Vec3 c(grid(i), grid(j), grid(k));
+      const Vec3 inner = kInner * c;
+      const Vec3 outer = cube_to_sphere(c);
+      const Vec3 p = layer == layers ? outer : Vec3(inner + (static_cast<double>(layer) / layers) * (outer - inner));
+      raw.positions.push_back(center + radius * p);
+    }
+    return it->second;
+  };
+  constexpr int kOrders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  // Kuhn split of a cell whose corner (a, b, c) + (da, db, dc) maps to a vertex through `at`.
+  const auto kuhn = [&](const auto& at) {
+    for (const auto& order : kOrders) {
+      int d[3] = {0, 0, 0};
+      TetIndices tet{};
+      tet[0] = at(0, 0, 0);
+      for (int s = 0; s < 3; ++s) {
+        d[order[s]] = 1;
+        tet[static_cast<size_t>(s) + 1] = at(d[0], d[1], d[2]);
+      }
+      raw.tets.push_back(tet);  // orientation fixed by TetMesh::build
+    }
+  };
+  // Inner cube (layer 0).
+  for (int k = 0; k < n; ++k) {
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        kuhn([&](int a, int b, int c) { return vertex(i + a, j + b, k + c, 0); });
+      }
+    }
+  }
+  // Shell: for each face (normal axis, side), cells (u, v) over the other two axes, layers outward.
+  for (int axis = 0; axis < 3; ++axis) {
+    const int ua = axis == 0 ? 1 : 0, va = axis == 2 ? 1 : 2;
+    for (int side : {0, n}) {
+      for (int v = 0; v < n; ++v) {
+        for (int u = 0; u < n; ++u) {
+          for (int l = 0; l < layers; ++l) {
+            kuhn([&](int du, int dv, int dl) {
+              int ijk[3];
+              ijk[axis] = side;
+              ijk[ua] = u + du;
+              ijk[va] = v + dv;
+              return vertex(ijk[0], ijk[1], ijk[2], l + dl);
+            });
+          }
+        }
+      }
+    }
   }
   return raw;
 }

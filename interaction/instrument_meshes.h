@@ -1,8 +1,11 @@
 // Tet meshes for instruments (issue 6, item 2), built here from the Kuhn box of sim/mesh/box_mesh.h
 // by smooth maps, so no generator of slivers is needed:
-//  - ball: each cube shell |p|_inf = s is mapped onto the sphere of radius s by the cube-sphere
-//    map x' = x sqrt(1 - y^2/2 - z^2/2 + y^2 z^2/3) (and cyclic), which spreads the corner cells
-//    far more evenly than a radial projection; tets stay well shaped (tested: radius ratio).
+//  - ball: an inner Kuhn cube (half-size 0.35 r) inside a shell of six blocks of hexahedra
+//    between the cube's faces and the sphere, the outer layer placed by the cube-sphere map
+//    x' = x sqrt(1 - y^2/2 - z^2/2 + y^2 z^2/3) (and cyclic). Each shell tet spans two radial
+//    layers, so none has four vertices on the sphere (projecting a whole Kuhn cube does, and its
+//    corner tets become slivers: radius ratio 0.07 at 4 cells, 0.013 at 8). Here the worst radius
+//    ratio stays >= 0.18 at every resolution (tested).
 //  - cylinder: the square cross-section is mapped onto the disk by the elliptical grid map
 //    (x sqrt(1 - y^2/2), y sqrt(1 - x^2/2)).
 //  - plate: a box placed by its min corner.
