@@ -3,10 +3,16 @@
 // vanishing-direction fallbacks (nearest surface triangle); self-collision contacts.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <sstream>
+
+#include <unistd.h>
 #include <numbers>
 #include <random>
 
+#include "sim/collision/contact_debug.h"
 #include "sim/collision/contact_triangle.h"
 #include "sim/collision/penetration_depth.h"
 #include "sim/collision/spatial_hash.h"
@@ -221,6 +227,46 @@ TEST(ContactTriangle, SelfCollisionContactsAvoidTheVertexOwnTriangles) {
     EXPECT_GE(c.penetration_depth, 0.0);
     EXPECT_NEAR(c.penetration_direction.norm(), 1.0, 1e-12);
   }
+}
+
+TEST(ContactDebug, WritesCollidingVerticesAndContactTrianglesAsVtu) {
+  const auto cube = make_box_mesh({Vec3(0.4, 0.4, 0.4), 4, 4, 4});
+  const auto block = make_box_mesh({Vec3(2.0, 2.0, 2.0), 4, 4, 4});
+  std::vector<Vec3> probe;
+  for (const Vec3& p : cube->rest_positions()) probe.push_back(p + Vec3(0.1, 0.1, 1.1));
+  std::vector<CollisionBody> bodies(2);
+  bodies[0].mesh = cube.get();
+  bodies[0].positions = probe;
+  bodies[1].mesh = block.get();
+  bodies[1].positions = block->rest_positions();
+  SpatialHash hash;
+  PenetrationDepthSolver solver;
+  std::vector<VertexInTet> colliding;
+  std::vector<VertexContact> contacts;
+  hash.detect(bodies, CollisionFilter::from_bodies(bodies), colliding);
+  solver.compute(bodies, colliding, contacts);
+  ASSERT_FALSE(contacts.empty());
+  const auto dir = std::filesystem::temp_directory_path() / ("pliant_contact_debug_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto points_path = (dir / "contacts.vtu").string();
+  const auto triangles_path = (dir / "contact_triangles.vtu").string();
+  write_contact_debug_vtu(points_path, triangles_path, bodies, contacts);
+  auto slurp = [](const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  const std::string points = slurp(points_path);
+  const std::string triangles = slurp(triangles_path);
+  const std::string n = std::to_string(contacts.size());
+  EXPECT_NE(points.find("NumberOfPoints=\"" + n + "\" NumberOfCells=\"" + n + "\""), std::string::npos);
+  EXPECT_NE(points.find("Name=\"depth_vector\" NumberOfComponents=\"3\""), std::string::npos);
+  EXPECT_NE(points.find("Name=\"layer\""), std::string::npos);
+  const std::string n3 = std::to_string(3 * contacts.size());
+  EXPECT_NE(triangles.find("NumberOfPoints=\"" + n3 + "\" NumberOfCells=\"" + n + "\""), std::string::npos);
+  EXPECT_NE(triangles.find("Name=\"barycentric\""), std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
