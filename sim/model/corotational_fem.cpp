@@ -98,6 +98,7 @@ Mat3 CorotationalFem::first_piola(const Mat3& F, const Mat3& R) const {
 }
 
 void CorotationalFem::update_rotations(std::span<const Vec3> x) {
+  stiffness_assembled_ = false;
   std::fill(forces_.begin(), forces_.end(), Vec3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   for (size_t t = 0; t < nt; ++t) {
@@ -155,7 +156,7 @@ double CorotationalFem::elastic_energy(std::span<const Vec3> x) {
 
 void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const {
   std::fill(y.begin(), y.end(), Vec3::Zero());
-  if (product_ == StiffnessProduct::assembled && !blocks_.empty()) {
+  if (stiffness_assembled_) {
     const size_t n = y.size();
     for (size_t i = 0; i < n; ++i) {
       Vec3 sum = Vec3::Zero();
@@ -193,15 +194,18 @@ void CorotationalFem::assemble_stiffness() {
     r[3] = Rg.col(2);
     r[0] = -(r[1] + r[2] + r[3]);
     const double V = volume_[t];
-    // R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T)
+    // R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T); K_ji = K_ij^T.
+    const double Vmu = V * mu_, Vlambda = V * lambda_;
     for (size_t i = 0; i < 4; ++i) {
-      for (size_t j = 0; j < 4; ++j) {
-        Mat3 K = V * (mu_ * r[j] * r[i].transpose() + lambda_ * r[i] * r[j].transpose());
-        K.diagonal().array() += V * mu_ * r[i].dot(r[j]);
+      for (size_t j = i; j < 4; ++j) {
+        Mat3 K = Vmu * r[j] * r[i].transpose() + Vlambda * r[i] * r[j].transpose();
+        K.diagonal().array() += Vmu * r[i].dot(r[j]);
         blocks_[static_cast<size_t>(tet_blocks_[t][i * 4 + j])] += K;
+        if (j != i) blocks_[static_cast<size_t>(tet_blocks_[t][j * 4 + i])] += K.transpose();
       }
     }
   }
+  stiffness_assembled_ = true;
 }
 
 void CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale,
@@ -235,7 +239,14 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // Block-Jacobi preconditioner: inverse 3x3 diagonal blocks of the system matrix.
   for (size_t i = 0; i < n; ++i) preconditioner_[i] = Mat3::Identity() * (mass_scale * in.masses[i]);
   const auto nt = static_cast<size_t>(mesh_->tet_count());
-  for (size_t t = 0; t < nt; ++t) {
+  if (product_ == StiffnessProduct::assembled) {
+    for (size_t i = 0; i < n; ++i) {
+      const auto b = std::lower_bound(block_cols_.begin() + block_row_offsets_[i],
+                                      block_cols_.begin() + block_row_offsets_[i + 1], static_cast<int>(i));
+      preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(b - block_cols_.begin())];
+    }
+  }
+  for (size_t t = 0; t < nt && product_ == StiffnessProduct::matrix_free; ++t) {
     const Mat3& Rg = rotated_gradients_[t];
     const auto& tet = mesh_->tets()[t];
     const double c = stiffness_scale * volume_[t];

@@ -8,9 +8,11 @@
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
 //   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
 //   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
-// - K' is applied matrix-free per tet: with r_j = R g_j (rotated shape gradients) and
-//   A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i. An assembled 3x3-block
-//   sparse K' is kept as an option for the benchmark (docs/deformation-models.md has the numbers).
+// - K' is assembled once per step into 3x3-block CSR rows (by vertex) from the rotated shape
+//   gradients r_j = R g_j: R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T).
+//   The matrix-free product per tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) +
+//   lambda tr(A) I) r_i, is kept as an option; the assembled one was faster at the default 20 CG
+//   iterations (docs/deformation-models.md has the numbers).
 #pragma once
 
 #include <vector>
@@ -21,15 +23,15 @@ namespace pliant {
 
 /// How the implicit solver applies K'.
 enum class StiffnessProduct {
-  matrix_free,  ///< element by element from rotated shape gradients (default: faster, measured)
-  assembled,    ///< 3x3-block sparse matrix assembled once per step
+  matrix_free,  ///< element by element from rotated shape gradients
+  assembled,    ///< 3x3-block sparse matrix assembled once per step (default: faster, measured)
 };
 
 class CorotationalFem final : public DeformationModel {
  public:
   /// Precomputes inverse rest shapes; `product` selects how K' is applied in CG.
   CorotationalFem(TetMeshPtr mesh, const Material& material, const ModelSettings& settings,
-                  StiffnessProduct product = StiffnessProduct::matrix_free);
+                  StiffnessProduct product = StiffnessProduct::assembled);
 
   ModelKind kind() const override { return ModelKind::corotational_fem; }
   void internal_forces(std::span<const Vec3> x, std::span<Vec3> f) override;
@@ -41,8 +43,11 @@ class CorotationalFem final : public DeformationModel {
 
   /// Updates element rotations at x and their rotated shape gradients (the K' of the next solve).
   void update_rotations(std::span<const Vec3> x);
-  /// y = K' p with the rotations of the last update_rotations (fixed vertices not projected).
+  /// y = K' p with the rotations of the last update_rotations (fixed vertices not projected); uses
+  /// the assembled blocks when they are current (inside advance), else the matrix-free product.
   void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// True while the assembled K' matches the current rotations (set by advance, cleared by updates).
+  bool stiffness_is_assembled() const { return stiffness_assembled_; }
   /// Element rotation (from the last full evaluation at some x).
   Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
   /// Deformation gradient F = Ds Dm^-1 of a tet at positions x.
@@ -75,6 +80,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> block_row_offsets_, block_cols_;
   std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
   std::vector<Mat3> blocks_;
+  bool stiffness_assembled_ = false;
 
   // Per-step scratch, sized once.
   std::vector<Vec3> forces_, rhs_, dv_, r_, z_, p_, q_, kv_;

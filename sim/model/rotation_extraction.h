@@ -35,21 +35,36 @@ inline int extract_rotation(const Mat3& F, Quat& q, int max_iterations = 30, dou
     const Vec3 omega_num = R.col(0).cross(F.col(0)) + R.col(1).cross(F.col(1)) + R.col(2).cross(F.col(2));
     const double denom = std::abs(R.col(0).dot(F.col(0)) + R.col(1).dot(F.col(1)) + R.col(2).dot(F.col(2))) + 1e-9;
     Vec3 omega = omega_num / denom;
+    if (!(omega.norm() >= tolerance)) break;  // converged (also stops on NaN input)
     bool newton_step = false;
     const Mat3 A = F * R.transpose();
     Mat3 H = -0.5 * (A + A.transpose());
     H.diagonal().array() += A.trace();
-    const Eigen::LLT<Mat3> newton(H);
-    if (newton.info() == Eigen::Success && H.diagonal().minCoeff() > 1e-3 * denom) {
-      const Vec3 step = newton.solve(omega_num);
-      if (step.allFinite() && step.norm() < 1.0) {
+    // Positive definite by Sylvester's criterion (leading minors), then the adjugate solve.
+    const double m1 = H(0, 0), m2 = H(0, 0) * H(1, 1) - H(0, 1) * H(1, 0), det = H.determinant();
+    const double floor = 1e-3 * denom;
+    if (m1 > floor && m2 > floor * floor && det > floor * floor * floor) {
+      Mat3 adj;
+      adj(0, 0) = H(1, 1) * H(2, 2) - H(1, 2) * H(2, 1);
+      adj(0, 1) = H(0, 2) * H(2, 1) - H(0, 1) * H(2, 2);
+      adj(0, 2) = H(0, 1) * H(1, 2) - H(0, 2) * H(1, 1);
+      adj(1, 1) = H(0, 0) * H(2, 2) - H(0, 2) * H(2, 0);
+      adj(1, 2) = H(0, 2) * H(1, 0) - H(0, 0) * H(1, 2);
+      adj(2, 2) = H(0, 0) * H(1, 1) - H(0, 1) * H(1, 0);
+      adj(1, 0) = adj(0, 1);  // H is symmetric
+      adj(2, 0) = adj(0, 2);
+      adj(2, 1) = adj(1, 2);
+      const Vec3 step = adj * omega_num / det;
+      if (step.squaredNorm() < 1.0) {
         omega = step;
         newton_step = true;
       }
     }
     const double angle = omega.norm();
     if (!(angle >= tolerance)) break;  // also stops on NaN input
-    q = Quat(Eigen::AngleAxisd(angle, omega / angle)) * q;
+    // Retraction without sin/cos: q <- normalize((1, omega/2) q), a rotation by 2 atan(|omega|/2)
+    // = |omega| (1 + O(|omega|^2)) about omega, which keeps Newton's quadratic convergence.
+    q = Quat(1.0, 0.5 * omega.x(), 0.5 * omega.y(), 0.5 * omega.z()) * q;
     q.normalize();
     // Newton converges quadratically: after a step of `angle` the error is O(angle^2).
     if (newton_step && angle * angle < tolerance) {
