@@ -10,8 +10,8 @@ Rgba8 colour_map(double t) {
   // viridis at t = 0, 0.25, 0.5, 0.75, 1 (matplotlib's _viridis_data).
   static constexpr std::array<std::array<double, 3>, 5> kStops = {{
       {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}}};
-  if (!(t > 0.0)) t = 0.0;
-  t = std::min(t, 1.0);
+  // NaN first: an ordered comparison with NaN raises FE_INVALID (trapped in tests).
+  t = std::isnan(t) ? 0.0 : std::clamp(t, 0.0, 1.0);
   const double s = t * static_cast<double>(kStops.size() - 1);
   const auto i = std::min(static_cast<size_t>(s), kStops.size() - 2);
   const double f = s - static_cast<double>(i);
