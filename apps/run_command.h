@@ -1,0 +1,30 @@
+// `pliant run SCENE`: runs a scene and writes DIR/summary.json, DIR/steps.csv,
+// DIR/tool_forces.csv and DIR/frames/frame_NNNNNN.png (DESIGN.md command-line contract).
+#pragma once
+
+#include <optional>
+#include <ostream>
+#include <string>
+
+namespace pliant {
+
+struct RunOptions {
+  std::string scene;
+  std::string out = "out";
+  std::optional<long> steps;
+  std::optional<double> duration;       ///< s
+  std::optional<std::string> contact;   ///< "surface" | "penalty" | "none"
+  std::optional<int> binary_search_iterations;
+  std::optional<bool> finishing_projection;
+  bool frames = false;     ///< force frames on
+  bool no_frames = false;  ///< force frames off
+  bool vtu = false;        ///< write .vtu frames and a .pvd series
+  bool realtime = false;   ///< run on the wall clock at the scene's loop rate
+  bool quiet = false;
+};
+
+/// Runs the scene. Returns 0 on success, 1 on a runtime failure (a step that could not be
+/// recovered), 130 when interrupted. Bad input throws InputError (exit code 2 in main).
+int run_scene(const RunOptions& options, std::ostream& log);
+
+}  // namespace pliant
