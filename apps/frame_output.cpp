@@ -3,16 +3,48 @@
 #include <iomanip>
 #include <sstream>
 
+#ifdef PLIANT_HAS_RENDER
+#include "render/frame_recorder.h"
+#endif
+
 namespace pliant {
 
+#ifdef PLIANT_HAS_RENDER
 struct FrameOutput::Png {
-  long written = 0;
-  long dropped = 0;
+  explicit Png(FrameRecorderSettings settings) : recorder(std::move(settings)) {}
+  FrameRecorder recorder;
+  SnapshotOptions options;
 };
+#else
+struct FrameOutput::Png {};
+#endif
 
 FrameOutput::FrameOutput(const Scene& scene, const std::filesystem::path& out, std::ostream* log) {
-  if (scene.output.frames && log != nullptr) {
-    *log << "pliant run: frames asked for, but PNG frames are not wired in yet; skipping them\n";
+  if (scene.output.frames) {
+#ifdef PLIANT_HAS_RENDER
+    FrameRecorderSettings settings;
+    settings.folder = out / "frames";
+    settings.width = scene.output.width;
+    settings.height = scene.output.height;
+    settings.asynchronous = false;  // offline runs are deterministic; FrameOutput::write picks the cadence
+    if (scene.camera) {
+      Camera camera;
+      camera.position = scene.camera->position;
+      camera.target = scene.camera->target;
+      camera.up = scene.camera->up;
+      camera.fov_y_deg = scene.camera->fov_deg;
+      settings.view.camera = camera;
+    }
+    try {
+      png_ = std::make_unique<Png>(std::move(settings));
+      png_->options.field = ScalarField::displacement;
+      png_enabled_ = true;
+    } catch (const std::exception& e) {
+      if (log != nullptr) *log << "pliant run: cannot render frames (" << e.what() << "); going on without them\n";
+    }
+#else
+    if (log != nullptr) *log << "pliant run: frames asked for, but this build has no renderer (PLIANT_RENDER=OFF)\n";
+#endif
   }
   if (scene.output.vtu) {
     vtu_enabled_ = true;
@@ -26,6 +58,9 @@ FrameOutput::~FrameOutput() = default;
 
 void FrameOutput::write(const World& world, const StepReport& report, long index) {
   (void)report;
+#ifdef PLIANT_HAS_RENDER
+  if (png_enabled_) png_->recorder.submit(take_snapshot(world, png_->options), index);
+#endif
   if (!vtu_enabled_) return;
   // One .vtu per body and frame; the .pvd lists them at the frame's time.
   const auto bodies = world.bodies();
@@ -49,9 +84,18 @@ void FrameOutput::write(const World& world, const StepReport& report, long index
   ++vtu_written_;
 }
 
-void FrameOutput::finish() {}
+void FrameOutput::finish() {
+#ifdef PLIANT_HAS_RENDER
+  if (png_enabled_) png_->recorder.finish();
+#endif
+}
 
-long FrameOutput::written() const { return png_ ? png_->written : vtu_written_; }
-long FrameOutput::dropped() const { return png_ ? png_->dropped : 0; }
+#ifdef PLIANT_HAS_RENDER
+long FrameOutput::written() const { return png_enabled_ ? png_->recorder.frames_written() : vtu_written_; }
+long FrameOutput::dropped() const { return png_enabled_ ? png_->recorder.frames_dropped() : 0; }
+#else
+long FrameOutput::written() const { return vtu_written_; }
+long FrameOutput::dropped() const { return 0; }
+#endif
 
 }  // namespace pliant

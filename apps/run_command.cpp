@@ -131,7 +131,7 @@ int run_scene(const RunOptions& options, std::ostream& log) {
                           << reading.torque.y() << ',' << reading.torque.z() << ',' << reading.position.x() << ','
                           << reading.position.y() << ',' << reading.position.z() << '\n';
     }
-    if (frames.enabled() && steps_done % frame_every == 0) frames.write(world, r, steps_done);
+    if (frames.enabled() && steps_done % frame_every == 0) frames.write(world, r, steps_done / frame_every);
     return true;
   };
 
