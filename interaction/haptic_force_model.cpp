@@ -25,12 +25,18 @@ Mat3 HapticForceModel::fit_stiffness(const std::deque<std::pair<Vec3, Vec3>>& pa
   const Vec3 lambda = eig.eigenvalues();
   const double largest = lambda.maxCoeff();
   if (!(largest > 0.0)) return Mat3::Zero();
-  Vec3 inverse = Vec3::Zero();
+  Vec3 inverse = Vec3::Zero(), excited = Vec3::Zero();
   for (int i = 0; i < 3; ++i) {
-    if (lambda[i] > 1e-10 * largest) inverse[i] = 1.0 / lambda[i];
+    if (lambda[i] > 1e-10 * largest) {
+      inverse[i] = 1.0 / lambda[i];
+      excited[i] = 1.0;
+    }
   }
   const Mat3 pinv = eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
-  return nearest_psd(yst * pinv);
+  // Restricted to the excited subspace (projector P) on both sides, so the symmetric part keeps
+  // the secant exactly there and says nothing about directions without data.
+  const Mat3 p = eig.eigenvectors() * excited.asDiagonal() * eig.eigenvectors().transpose();
+  return nearest_psd(p * (yst * pinv) * p);
 }
 
 void HapticForceModel::update(double t, const Vec3& x, const Vec3& f) {

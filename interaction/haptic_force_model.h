@@ -7,9 +7,11 @@
 // instrument position then, and K a 3x3 local stiffness (N/m), symmetric positive semi-definite,
 // so the predicted force never pushes the instrument further in. K is estimated from successive
 // physics steps by least squares over a short window of secant pairs (s_i = x_i - x_{i-1},
-// y_i = -(F_i - F_{i-1})): K = argmin sum |K s_i - y_i|^2 = Y S^T (S S^T)^+, then symmetrised and
+// y_i = -(F_i - F_{i-1})): K = argmin sum |K s_i - y_i|^2 = Y S^T (S S^T)^+, restricted to the
+// excited subspace on both sides (P K P, P the projector onto span{s_i}), symmetrised and
 // projected onto the PSD cone (negative eigenvalues set to zero). Directions the window has not
-// excited get no stiffness (pseudo-inverse), so nothing is invented.
+// excited get no stiffness, so nothing is invented; with all three excited a linear symmetric
+// environment is recovered exactly (tested).
 // Choices where the sources are silent (docs/interaction.md):
 //   - pairs where either force is zero (onset or loss of contact) are not used: contact onset is
 //     not linear;
