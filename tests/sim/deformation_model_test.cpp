@@ -257,9 +257,11 @@ TEST_P(ModelProperties, WorldColumnUnderGravitySagsAndComesToRest) {
   if (GetParam() == ModelKind::corotational_fem) {
     EXPECT_NEAR(top_shift, expected, 0.05 * std::abs(expected));
   } else {
-    // The Teschner network matches E only in the mean (docs/deformation-models.md): sign and order.
-    EXPECT_LT(top_shift, 0.2 * expected);
-    EXPECT_GT(top_shift, 5.0 * expected);
+    // The Teschner constraint network is stiffer than E at nu = 0 (docs/deformation-models.md:
+    // the derived springs give an effective modulus of about 1.3 E on an isotropic mesh; 0.69 of the
+    // FEM sag measured on this one).
+    EXPECT_GT(top_shift / expected, 0.5);
+    EXPECT_LT(top_shift / expected, 1.0);
   }
   EXPECT_LT(world.last_report().energy.kinetic, 1e-6 * def.material.density * 9.81 * L * 0.05 * 0.05 * L);
 }
