@@ -11,6 +11,8 @@
 namespace pliant {
 namespace {
 
+constexpr double kNegligibleForce = 1e-9;  ///< N
+
 std::string format(const char* fmt, double a) {
   std::array<char, 96> buffer{};
   std::snprintf(buffer.data(), buffer.size(), fmt, a);
@@ -109,7 +111,8 @@ RenderSnapshot take_snapshot(const World& world, const SnapshotOptions& options)
   if (options.reaction_arrows) {
     for (const auto& r : reactions) {
       const double magnitude = r.force.norm();
-      if (!(magnitude > 0.0) || r.body < 0 || static_cast<size_t>(r.body) >= world.bodies().size()) continue;
+      // Below a nanonewton the force is numerical noise; an auto-scaled arrow would magnify it.
+      if (!(magnitude > kNegligibleForce) || r.body < 0 || static_cast<size_t>(r.body) >= world.bodies().size()) continue;
       const Body* body = world.bodies()[static_cast<size_t>(r.body)];
       if (body == nullptr) continue;
       Vec3 origin = Vec3::Zero();

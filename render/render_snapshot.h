@@ -72,7 +72,8 @@ struct SnapshotOptions {
   bool reaction_arrows = true;  ///< an arrow per kinematic body showing the tissue's force on it
   bool depth_vectors = false;   ///< an arrow per colliding vertex along its depth vector d r
   /// Arrow length per newton (m/N); 0 picks a scale where the largest force is a quarter of the
-  /// scene's diagonal.
+  /// scene's diagonal (per frame: set a fixed scale for a sequence whose arrows must compare).
+  /// Forces below 1e-9 N get no arrow.
   double force_scale = 0.0;
   bool overlay_text = true;                ///< time, step and instrument forces as text lines
   std::optional<double> step_ms;           ///< wall time of the last step, shown when given (ms)
