@@ -4,7 +4,16 @@
 // (bounded error), and continuity of the depth vectors under small motions.
 #include <gtest/gtest.h>
 
+// This file replaces the global operator new/delete with malloc/free to count allocations; GCC's
+// mismatched-new-delete check cannot see that both sides are replaced.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <map>
 
 #include "sim/collision/penetration_depth.h"
@@ -252,6 +261,58 @@ TEST(PenetrationDepth, OutputOrderAndOneEntryPerPenetratedBody) {
   for (size_t i = 0; i < first.size(); ++i) {
     EXPECT_EQ(first[i].penetration_depth, s.contacts[i].penetration_depth);
     EXPECT_EQ(first[i].contact_triangle, s.contacts[i].contact_triangle);
+  }
+}
+
+}  // namespace
+}  // namespace pliant
+
+// Counts heap allocations in this test executable (replaces the global operator new).
+namespace {
+std::atomic<long long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace pliant {
+namespace {
+
+TEST(PenetrationDepth, NoAllocationPerStepAfterWarmUp) {
+  // 40 steps: refits and (every 16th step) full BVH rebuilds reuse their buffers.
+  Scene s;
+  s.probe_mesh = make_box_mesh({Vec3(0.6, 0.6, 0.6), 6, 6, 6});
+  const auto rest = s.probe_mesh->rest_positions();
+  s.probe_x = posed(rest, Quat::Identity(), Vec3(0.0, 0.0, 1.1));
+  s.run();
+  ASSERT_FALSE(s.contacts.empty());
+  s.colliding.reserve(4 * s.colliding.size());
+  s.contacts.reserve(4 * s.contacts.size());
+  std::vector<CollisionBody> bodies(2);
+  bodies[0].mesh = s.probe_mesh.get();
+  bodies[0].positions = s.probe_x;
+  bodies[1].mesh = s.block_mesh.get();
+  bodies[1].positions = s.block_x;
+  const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  // Pass 0 warms up (buffers grow to the largest contact set of the motion); pass 1 repeats the same
+  // motion and must not allocate.
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int step = 0; step < 40; ++step) {
+      for (size_t i = 0; i < rest.size(); ++i) {  // same vector, moved in place
+        s.probe_x[i] = rest[i] + Vec3(1e-3 * step, 0.0, 1.1 - 2e-3 * step);
+      }
+      const long long before = g_allocations.load();
+      s.hash.detect(bodies, filter, s.colliding);
+      s.solver.compute(bodies, s.colliding, s.contacts);
+      if (pass == 1) {
+        EXPECT_EQ(g_allocations.load(), before) << step;
+      }
+    }
   }
 }
 

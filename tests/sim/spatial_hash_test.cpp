@@ -3,7 +3,16 @@
 // meshes of different resolutions, including self-collision of folded meshes.
 #include <gtest/gtest.h>
 
+// This file replaces the global operator new/delete with malloc/free to count allocations; GCC's
+// mismatched-new-delete check cannot see that both sides are replaced.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <numbers>
 #include <random>
 
@@ -286,6 +295,52 @@ TEST(SpatialHash, FilteredAndInactiveBodiesAreNotHashed) {
   EXPECT_EQ(hash.stats().hashed_vertices, 2 * mesh->vertex_count());
   expect_same(found, brute_force(bodies, filter), bodies);
   EXPECT_FALSE(found.empty());
+}
+
+}  // namespace
+}  // namespace pliant
+
+// Counts heap allocations in this test executable (replaces the global operator new).
+namespace {
+std::atomic<long long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace pliant {
+namespace {
+
+TEST(SpatialHash, NoAllocationPerStepAfterWarmUp) {
+  const auto mesh = make_box_mesh({Vec3(0.3, 0.3, 0.3), 4, 4, 4});
+  std::vector<std::vector<Vec3>> x;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-0.15, 0.15);
+  for (int b = 0; b < 4; ++b) x.push_back(posed(*mesh, random_rotation(rng), Vec3(u(rng), u(rng), u(rng))));
+  std::vector<CollisionBody> bodies(4);
+  for (int b = 0; b < 4; ++b) {
+    bodies[static_cast<size_t>(b)].mesh = mesh.get();
+    bodies[static_cast<size_t>(b)].positions = x[static_cast<size_t>(b)];
+  }
+  const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  SpatialHash hash;
+  std::vector<VertexInTet> found;
+  hash.detect(bodies, filter, found);  // warm-up
+  const size_t warm = found.size();
+  ASSERT_GT(warm, 0u);
+  // Later steps with moved (not grown) content allocate nothing.
+  for (int step = 0; step < 5; ++step) {
+    for (auto& p : x[0]) p += Vec3(1e-3, 0.0, 0.0);
+    found.reserve(2 * warm);
+    const long long before = g_allocations.load();
+    hash.detect(bodies, filter, found);
+    EXPECT_EQ(g_allocations.load(), before) << step;
+  }
 }
 
 }  // namespace
