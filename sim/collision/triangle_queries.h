@@ -25,8 +25,9 @@ inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, const
   const Vec3 e2 = c - a;
   const Vec3 pvec = dir.cross(e2);
   const double det = e1.dot(pvec);
-  const double scale = e1.norm() * e2.norm() * dir.norm();
-  if (!(std::abs(det) > 1e-14 * scale)) return false;  // parallel or degenerate
+  // Parallel or degenerate: |det| <= 1e-14 |e1| |e2| |dir|, compared squared (no square roots).
+  const double scale2 = e1.squaredNorm() * e2.squaredNorm() * dir.squaredNorm();
+  if (!(det * det > 1e-28 * scale2)) return false;
   const double inv = 1.0 / det;
   const Vec3 tvec = origin - a;
   const double u = tvec.dot(pvec) * inv;
