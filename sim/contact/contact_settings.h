@@ -19,6 +19,9 @@ struct ContactSettings {
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0
+  /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
+  /// only for measuring what the weighting buys (continuity test).
+  bool barycentric_weighting = true;
 };
 
 }  // namespace pliant

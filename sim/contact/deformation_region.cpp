@@ -42,7 +42,8 @@ int DeformationRegion::add_vertex(std::span<Body* const> bodies, int body, int v
   return slot;
 }
 
-void DeformationRegion::build(std::span<Body* const> bodies, std::span<const VertexContact> contacts) {
+void DeformationRegion::build(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+                              bool weighted) {
   // Forget the previous step's region (only the touched map entries are reset).
   for (const auto& v : vertices_) index_of_[static_cast<size_t>(v.body)][static_cast<size_t>(v.vertex)] = -1;
   vertices_.clear();
@@ -80,7 +81,7 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
       const int y = add_vertex(bodies, c.penetrated_body, tri[static_cast<size_t>(k)]);
       grow(y);
       tri_region[static_cast<size_t>(k)] = y;
-      const double w = c.contact_barycentric[k];
+      const double w = weighted ? c.contact_barycentric[k] : (c.contact_barycentric[k] > 0.0 ? 1.0 : 0.0);
       numerator[static_cast<size_t>(y)] -= w * d;  // y moves into its own body: -d
       denominator[static_cast<size_t>(y)] += w;
       if (w > 0.0) triples.push_back({y, x, w});  // x lies in y's comparison area (Eq. 2)
@@ -97,8 +98,8 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
     const int x = contact_vertex_[c];
     if (has_partner[static_cast<size_t>(x)] != 0) continue;
     for (int k = 0; k < 3; ++k) {
-      const double w = contacts[c].contact_barycentric[k];
-      if (w > 0.0) triples.push_back({x, contact_triangle_[c][static_cast<size_t>(k)], w});
+      const double b = contacts[c].contact_barycentric[k];
+      if (b > 0.0) triples.push_back({x, contact_triangle_[c][static_cast<size_t>(k)], weighted ? b : 1.0});
     }
   }
 

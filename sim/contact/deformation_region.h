@@ -52,7 +52,8 @@ struct ComparisonPartner {
 class DeformationRegion {
  public:
   /// Builds the region and displacement vectors from the colliding vertices of this step.
-  void build(std::span<Body* const> bodies, std::span<const VertexContact> contacts);
+  /// `weighted` = false replaces every barycentric weight by 1 (for comparison only).
+  void build(std::span<Body* const> bodies, std::span<const VertexContact> contacts, bool weighted = true);
 
   std::vector<DisplacementVertex>& vertices() { return vertices_; }
   const std::vector<DisplacementVertex>& vertices() const { return vertices_; }

@@ -7,15 +7,13 @@ namespace pliant {
 namespace {
 
 // Adds a force to a vertex of a deformable body as an impulse over dt (symplectic: the position
-// moves with the new velocity), and returns the position change it caused.
-Vec3 apply_force(Body& body, int v, const Vec3& f, double dt) {
-  if (body.is_immovable(v)) return Vec3::Zero();
+// moves with the new velocity, as if the force had been part of the integration).
+void apply_force(Body& body, int v, const Vec3& f, double dt) {
+  if (body.is_immovable(v)) return;
   const auto i = static_cast<size_t>(v);
   const Vec3 dv = dt * f / body.masses[i];
   body.velocities[i] += dv;
-  const Vec3 dx = dt * dv;
-  body.positions[i] += dx;
-  return dx;
+  body.positions[i] += dt * dv;
 }
 
 }  // namespace
@@ -45,14 +43,14 @@ void PenaltyResponse::respond(std::span<Body* const> bodies, std::span<const Ver
     }
 
     // f on the vertex, -f spread over the contact triangle.
-    const Vec3 dx_vertex = apply_force(m, c.vertex, f, dt);
-    Vec3 dx_contact = Vec3::Zero();
+    apply_force(m, c.vertex, f, dt);
     for (int k = 0; k < 3; ++k) {
       const double w = c.contact_barycentric[k];
-      dx_contact += w * apply_force(n, tri[static_cast<size_t>(k)], -w * f, dt);
+      apply_force(n, tri[static_cast<size_t>(k)], -w * f, dt);
     }
-    const double residual = c.penetration_depth - (dx_vertex - dx_contact).dot(r);
-    report.max_residual_overlap = std::max(report.max_residual_overlap, residual);
+    // A penalty force does not remove the overlap it sees; it pushes during the next steps, and
+    // at rest the overlap is the spring's static deflection. So the overlap left is the depth.
+    report.max_residual_overlap = std::max(report.max_residual_overlap, c.penetration_depth);
     report.total_contact_force += f.norm();
 
     // Reactions on kinematic bodies (the force the tissue exerts on the instrument).
