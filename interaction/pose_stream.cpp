@@ -140,7 +140,7 @@ std::shared_ptr<PoseStream> PoseStream::from_text(const std::string& text, const
 }
 
 PoseStream::~PoseStream() {
-  if (fd_ > 0) ::close(fd_);
+  if (kind_ == Kind::udp && fd_ >= 0) ::close(fd_);  // stdin is not ours to close
 }
 
 void PoseStream::add_text(const std::string& text) {
