@@ -18,7 +18,7 @@ std::filesystem::path FrameRecorder::frame_path(const std::filesystem::path& fol
 }
 
 FrameRecorder::FrameRecorder(FrameRecorderSettings settings)
-    : settings_(std::move(settings)), renderer_(settings_.width, settings_.height) {
+    : settings_(std::move(settings)), renderer_(settings_.width, settings_.height, settings_.samples) {
   if (settings_.every_k_steps < 1) {
     throw RenderError("FrameRecorder: every_k_steps must be at least 1, got " + std::to_string(settings_.every_k_steps));
   }

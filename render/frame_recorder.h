@@ -34,6 +34,7 @@ struct FrameRecorderSettings {
   std::filesystem::path folder = "frames";  ///< created if missing
   int width = 640;                          ///< pixels
   int height = 480;                         ///< pixels
+  int samples = 4;                          ///< multisample anti-aliasing (1 = off)
   int every_k_steps = 1;                    ///< record(): a frame when world.step_count() % k == 0
   bool asynchronous = false;                ///< render and write on a worker thread
   std::size_t queue_capacity = 4;           ///< asynchronous: snapshots that may wait; more are dropped

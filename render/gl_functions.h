@@ -52,7 +52,18 @@ namespace pliant::gl {
   X(void, VertexAttribPointer, (GLuint, GLint, GLenum, GLboolean, GLsizei, const void*))            \
   X(void, EnableVertexAttribArray, (GLuint))                                                        \
   X(void, DrawArrays, (GLenum, GLint, GLsizei))                                                     \
-  X(void, DrawElements, (GLenum, GLsizei, GLenum, const void*))
+  X(void, DrawElements, (GLenum, GLsizei, GLenum, const void*))                                     \
+  X(void, GenFramebuffers, (GLsizei, GLuint*))                                                      \
+  X(void, BindFramebuffer, (GLenum, GLuint))                                                        \
+  X(void, DeleteFramebuffers, (GLsizei, const GLuint*))                                             \
+  X(GLenum, CheckFramebufferStatus, (GLenum))                                                       \
+  X(void, GenRenderbuffers, (GLsizei, GLuint*))                                                     \
+  X(void, BindRenderbuffer, (GLenum, GLuint))                                                       \
+  X(void, DeleteRenderbuffers, (GLsizei, const GLuint*))                                            \
+  X(void, RenderbufferStorageMultisample, (GLenum, GLsizei, GLenum, GLsizei, GLsizei))              \
+  X(void, FramebufferRenderbuffer, (GLenum, GLenum, GLenum, GLuint))                                \
+  X(void, BlitFramebuffer, (GLint, GLint, GLint, GLint, GLint, GLint, GLint, GLint, GLbitfield, GLenum)) \
+  X(void, GetIntegerv, (GLenum, GLint*))
 
 /// Function pointers of one context.
 struct Functions {

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
@@ -113,6 +114,8 @@ struct OffscreenRenderer::Impl {
   std::vector<std::uint8_t> colour_buffer;  // OSMesa's window-system framebuffer
   gl::Functions gl;
   GLuint program = 0, vao = 0, vbo = 0, ebo = 0;
+  int samples = 1;
+  GLuint msaa_framebuffer = 0, msaa_colour = 0, msaa_depth = 0;  // only when samples > 1
   GLint u_view_projection = -1, u_view = -1, u_lit = -1, u_use_uniform_colour = -1, u_colour = -1,
         u_point_size = -1;
   float max_line_width = 1.0f;
@@ -195,6 +198,29 @@ struct OffscreenRenderer::Impl {
     gl.EnableVertexAttribArray(1);
     gl.EnableVertexAttribArray(2);
 
+    // Multisampled framebuffer, resolved into OSMesa's buffer after drawing.
+    if (samples > 1) {
+      GLint max_samples = 1;
+      gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
+      samples = std::min(samples, std::max(1, static_cast<int>(max_samples)));
+    }
+    if (samples > 1) {
+      gl.GenRenderbuffers(1, &msaa_colour);
+      gl.BindRenderbuffer(GL_RENDERBUFFER, msaa_colour);
+      gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_RGBA8, width, height);
+      gl.GenRenderbuffers(1, &msaa_depth);
+      gl.BindRenderbuffer(GL_RENDERBUFFER, msaa_depth);
+      gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_DEPTH_COMPONENT24, width, height);
+      gl.GenFramebuffers(1, &msaa_framebuffer);
+      gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_framebuffer);
+      gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, msaa_colour);
+      gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, msaa_depth);
+      if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+        throw RenderError("OSMesa: the " + std::to_string(samples) + "-sample framebuffer is incomplete");
+      }
+      gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    }
+
     GLfloat range[2] = {1.0f, 1.0f};
     gl.GetFloatv(GL_ALIASED_LINE_WIDTH_RANGE, range);
     max_line_width = std::max(1.0f, range[1]);
@@ -214,36 +240,49 @@ void OffscreenRenderer::Impl::build_geometry(const RenderSnapshot& snap, const V
   vertices.clear();
   indices.clear();
 
-  // Surfaces: smooth area-weighted normals (sum of unnormalised triangle normals per vertex).
+  // Surfaces: one vertex per triangle corner, so a corner can take its own normal: the
+  // area-weighted sum of the normals of the triangles around the vertex that lie within the crease
+  // angle of this triangle. Smooth over gentle curvature (tissue), sharp at box edges.
+  const double cos_crease = std::cos(std::clamp(view.crease_angle_deg, 0.0, 180.0) * std::numbers::pi / 180.0);
   for (const BodySnapshot& body : snap.bodies) {
     if (!body.mesh) continue;
-    const auto base = static_cast<std::uint32_t>(vertices.size());
-    const auto& triangles = body.mesh->surface_triangles();
+    const TetMesh& mesh = *body.mesh;
+    const auto& triangles = mesh.surface_triangles();
     const auto& x = body.positions;
-    normals.assign(x.size(), Vec3::Zero());
-    for (const TriIndices& t : triangles) {
-      const Vec3 n = (x[static_cast<size_t>(t[1])] - x[static_cast<size_t>(t[0])])
-                         .cross(x[static_cast<size_t>(t[2])] - x[static_cast<size_t>(t[0])]);
-      for (int k : t) normals[static_cast<size_t>(k)] += n;
+    normals.resize(triangles.size());  // area-weighted face normals (length = 2 * area)
+    for (size_t t = 0; t < triangles.size(); ++t) {
+      const TriIndices& tri = triangles[t];
+      normals[t] = (x[static_cast<size_t>(tri[1])] - x[static_cast<size_t>(tri[0])])
+                       .cross(x[static_cast<size_t>(tri[2])] - x[static_cast<size_t>(tri[0])]);
     }
     const bool mapped = !body.scalar_field.empty() && body.scalar_field.size() == x.size();
-    for (size_t i = 0; i < x.size(); ++i) {
-      const double len = normals[i].norm();
-      const Vec3 n = len > 0.0 ? Vec3(normals[i] / len) : Vec3::UnitZ();
-      const Rgba8 c = mapped ? colour_map(normalised(body.scalar_field[i], snap.field_min, snap.field_max)) : body.colour;
-      vertices.push_back(make_vertex(x[i] - origin, n, c));
-    }
-    for (const TriIndices& t : triangles) {
-      for (int k : t) indices.push_back(base + static_cast<std::uint32_t>(k));
+    for (size_t t = 0; t < triangles.size(); ++t) {
+      const double face_length = normals[t].norm();
+      const Vec3 face_unit = face_length > 0.0 ? Vec3(normals[t] / face_length) : Vec3::UnitZ();
+      for (int v : triangles[t]) {
+        Vec3 n = Vec3::Zero();
+        for (int s : mesh.vertex_surface_triangles(v)) {
+          const Vec3& other = normals[static_cast<size_t>(s)];
+          const double other_length = other.norm();
+          if (other_length > 0.0 && other.dot(face_unit) >= cos_crease * other_length) n += other;
+        }
+        const double len = n.norm();
+        const Rgba8 c = mapped ? colour_map(normalised(body.scalar_field[static_cast<size_t>(v)], snap.field_min,
+                                                       snap.field_max))
+                               : body.colour;
+        indices.push_back(static_cast<std::uint32_t>(vertices.size()));
+        vertices.push_back(make_vertex(x[static_cast<size_t>(v)] - origin, len > 0.0 ? Vec3(n / len) : face_unit, c));
+      }
     }
   }
   triangle_index_count = indices.size();
 
-  // Wireframe: every surface edge once.
+  // Wireframe: every surface edge once, over a shared-vertex copy of the positions.
   if (view.wireframe) {
-    std::uint32_t base = 0;
     for (const BodySnapshot& body : snap.bodies) {
       if (!body.mesh) continue;
+      const auto base = static_cast<std::uint32_t>(vertices.size());
+      for (const Vec3& p : body.positions) vertices.push_back(make_vertex(p - origin, Vec3::UnitZ(), view.wireframe_colour));
       edges.clear();
       for (const TriIndices& t : body.mesh->surface_triangles()) {
         for (int k = 0; k < 3; ++k) {
@@ -258,7 +297,6 @@ void OffscreenRenderer::Impl::build_geometry(const RenderSnapshot& snap, const V
         indices.push_back(base + static_cast<std::uint32_t>(a));
         indices.push_back(base + static_cast<std::uint32_t>(b));
       }
-      base += static_cast<std::uint32_t>(body.positions.size());
     }
   }
   edge_index_count = indices.size() - triangle_index_count;
@@ -335,7 +373,7 @@ void OffscreenRenderer::Impl::draw_overlays(Image& image, const RenderSnapshot& 
   }
 }
 
-OffscreenRenderer::OffscreenRenderer(int width, int height) : impl_(std::make_unique<Impl>()) {
+OffscreenRenderer::OffscreenRenderer(int width, int height, int samples) : impl_(std::make_unique<Impl>()) {
   if (width <= 0 || height <= 0) {
     throw RenderError("OffscreenRenderer: image size must be positive, got " + std::to_string(width) + "x" +
                       std::to_string(height));
@@ -344,6 +382,7 @@ OffscreenRenderer::OffscreenRenderer(int width, int height) : impl_(std::make_un
   Impl& r = *impl_;
   r.width = width;
   r.height = height;
+  r.samples = std::max(1, samples);
   r.colour_buffer.assign(static_cast<size_t>(width) * static_cast<size_t>(height) * 4u, 0);
 
   // Core profile 3.3 first, then a 3.3 compatibility context, then whatever legacy OSMesa gives.
@@ -404,6 +443,11 @@ OffscreenRenderer::~OffscreenRenderer() {
     r.gl.DeleteBuffers(1, &r.ebo);
     r.gl.DeleteVertexArrays(1, &r.vao);
     r.gl.DeleteProgram(r.program);
+    if (r.msaa_framebuffer != 0) {
+      r.gl.DeleteFramebuffers(1, &r.msaa_framebuffer);
+      r.gl.DeleteRenderbuffers(1, &r.msaa_colour);
+      r.gl.DeleteRenderbuffers(1, &r.msaa_depth);
+    }
     Impl::release();
   }
   OSMesaDestroyContext(r.context);
@@ -414,6 +458,7 @@ int OffscreenRenderer::height() const { return impl_->height; }
 const std::string& OffscreenRenderer::gl_version() const { return impl_->version; }
 const std::string& OffscreenRenderer::gl_renderer() const { return impl_->renderer; }
 bool OffscreenRenderer::core_profile() const { return impl_->core; }
+int OffscreenRenderer::samples() const { return impl_->samples; }
 
 Image OffscreenRenderer::render(const RenderSnapshot& snapshot, const ViewSettings& view) {
   FpEnvironmentHold hold;
@@ -454,6 +499,7 @@ Image OffscreenRenderer::render(const RenderSnapshot& snapshot, const ViewSettin
   r.build_geometry(snapshot, view, origin, triangle_index_count, edge_index_count, point_first, point_count,
                    line_first, line_vertex_count);
 
+  gl.BindFramebuffer(GL_FRAMEBUFFER, r.msaa_framebuffer);
   gl.Viewport(0, 0, r.width, r.height);
   gl.ClearColor(view.background.r / 255.0f, view.background.g / 255.0f, view.background.b / 255.0f, 1.0f);
   gl.Enable(GL_DEPTH_TEST);
@@ -500,6 +546,14 @@ Image OffscreenRenderer::render(const RenderSnapshot& snapshot, const ViewSettin
     gl.LineWidth(std::clamp(view.arrow_width, 1.0f, r.max_line_width));
     gl.DrawArrays(GL_LINES, static_cast<GLint>(line_first), static_cast<GLsizei>(line_vertex_count));
     gl.LineWidth(1.0f);
+  }
+
+  // Resolve the samples into OSMesa's buffer.
+  if (r.msaa_framebuffer != 0) {
+    gl.BindFramebuffer(GL_READ_FRAMEBUFFER, r.msaa_framebuffer);
+    gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+    gl.BlitFramebuffer(0, 0, r.width, r.height, 0, 0, r.width, r.height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
   }
 
   // Read back (GL rows are bottom-up) and flip into a top-down image.

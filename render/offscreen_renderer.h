@@ -4,12 +4,13 @@
 // Design note. The context is a core profile (3.3+) one when OSMesaCreateContextAttribs gives it
 // (Debian's Mesa does), else the best legacy context that still runs GLSL 3.30. Geometry is
 // re-uploaded every frame into one vertex buffer (positions relative to the scene centre, so float
-// precision does not depend on where the scene sits): lit surfaces with smooth area-weighted
-// normals, then an optional wireframe, then contact points and force arrows on top. Text and the
-// legend bar are drawn on the CPU into the read-back image with a built-in bitmap font, so they
-// are exact and identical everywhere. llvmpipe is deterministic: the same snapshot and settings
-// give bitwise the same image. The caller's floating-point traps are held (feholdexcept) while
-// Mesa runs, because its JIT code may legitimately raise inexact/invalid flags.
+// precision does not depend on where the scene sits): lit surfaces with area-weighted normals
+// smoothed within a crease angle, then an optional wireframe, then contact points and force arrows
+// on top. Optional multisampling renders into a multisampled framebuffer and resolves it. Text and
+// the legend bar are drawn on the CPU into the read-back image with a built-in bitmap font, so
+// they are exact and identical everywhere. llvmpipe is deterministic: the same snapshot and
+// settings give bitwise the same image. The caller's floating-point traps are held (feholdexcept)
+// while Mesa runs, because its JIT code may legitimately raise invalid/overflow flags.
 // Thread use: one thread at a time; the context is made current at the start of each call and
 // released at the end, so a renderer may be created on one thread and used on another.
 #pragma once
@@ -28,6 +29,7 @@ namespace pliant {
 struct ViewSettings {
   std::optional<Camera> camera;       ///< unset: frame the snapshot's bounds (frame_bounds)
   Rgba8 background{40, 44, 52, 255};  ///< clear colour
+  double crease_angle_deg = 50.0;     ///< normals are smoothed across edges flatter than this
   bool wireframe = false;             ///< surface edges drawn over the shaded surface
   Rgba8 wireframe_colour{25, 25, 25, 255};
   bool contact_points = true;         ///< draw RenderSnapshot::contact_points
@@ -44,8 +46,9 @@ struct ViewSettings {
 class OffscreenRenderer {
  public:
   /// Creates the GL context and its buffers; throws RenderError if OSMesa cannot create a context
-  /// with GLSL 3.30 or the size is not positive.
-  OffscreenRenderer(int width, int height);
+  /// with GLSL 3.30 or the size is not positive. `samples` > 1 renders into a multisampled
+  /// framebuffer and resolves it (anti-aliasing; clamped to the driver's maximum).
+  OffscreenRenderer(int width, int height, int samples = 1);
   ~OffscreenRenderer();
   OffscreenRenderer(const OffscreenRenderer&) = delete;
   OffscreenRenderer& operator=(const OffscreenRenderer&) = delete;
@@ -61,6 +64,8 @@ class OffscreenRenderer {
   const std::string& gl_renderer() const;
   /// True if the context is a core profile one.
   bool core_profile() const;
+  /// Samples per pixel actually used (1 = no multisampling).
+  int samples() const;
 
  private:
   struct Impl;

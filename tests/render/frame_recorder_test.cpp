@@ -66,7 +66,7 @@ TEST(FrameRecorder, SynchronousWritesEveryKthStepAsTheDirectRender) {
   settings.view.text = false;
   FrameRecorder recorder(settings);
   MovingBoxScene scene;
-  OffscreenRenderer direct(settings.width, settings.height);
+  OffscreenRenderer direct(settings.width, settings.height, settings.samples);
   std::vector<RenderSnapshot> expected;
   EXPECT_TRUE(recorder.record(scene.world));  // step 0 -> frame 0
   expected.push_back(take_snapshot(scene.world));

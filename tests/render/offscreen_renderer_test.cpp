@@ -248,6 +248,47 @@ TEST_F(OffscreenRendererTest, AutomaticCameraKeepsTheWholeSceneInView) {
   }
 }
 
+TEST_F(OffscreenRendererTest, MultisamplingChangesOnlyPixelsAtEdges) {
+  World world;
+  add_box(world, 0.4, Vec3(0.03, 0.0, 0.01), "box");
+  SnapshotOptions white;
+  white.body_colours = {{"box", Rgba8{255, 255, 255, 255}}};
+  const RenderSnapshot snap = take_snapshot(world, white);
+  ViewSettings view = plain_view(front_camera());
+  view.camera->position = Vec3(0.8, -1.8, 0.6);  // oblique, so edges are slanted
+  const Image aliased = renderer_->render(snap, view);
+  OffscreenRenderer msaa(kWidth, kHeight, 4);
+  EXPECT_EQ(msaa.samples(), 4);
+  const Image smooth = msaa.render(snap, view);
+  // A pixel whose 3x3 neighbourhood is uniform in the aliased image lies away from every edge and
+  // must come out the same (all samples see the same surface and nearly the same shading).
+  long changed = 0;
+  for (int y = 1; y + 1 < kHeight; ++y) {
+    for (int x = 1; x + 1 < kWidth; ++x) {
+      const Rgba8 a = aliased.pixel(x, y);
+      const Rgba8 b = smooth.pixel(x, y);
+      const int diff = std::max({std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)});
+      bool background_neighbourhood = true, any_background = false;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const bool bg = aliased.pixel(x + dx, y + dy) == kBackground;
+          background_neighbourhood = background_neighbourhood && bg;
+          any_background = any_background || bg;
+        }
+      }
+      if (background_neighbourhood) {
+        EXPECT_EQ(b, kBackground) << x << "," << y;
+      }
+      if (!any_background) {
+        EXPECT_LE(diff, 24) << "interior pixel " << x << "," << y;
+      }
+      if (diff > 24) ++changed;
+    }
+  }
+  EXPECT_GT(changed, 10) << "the silhouette must be anti-aliased";
+  EXPECT_TRUE(msaa.render(snap, view) == smooth) << "multisampling stays deterministic";
+}
+
 TEST(OffscreenRendererErrors, ImpossibleSizesGiveAClearRenderError) {
   EXPECT_THROW(OffscreenRenderer(0, 10), RenderError);
   try {
