@@ -1,5 +1,5 @@
 // Off-screen rendering cost per 640x480 frame (llvmpipe): a ~1,000-vertex box and a
-// ~16,000-vertex scene of 250 small boxes; also the snapshot copy and the PNG encoding, the other
+// ~16,000-vertex scene of 250 small boxes, with wireframe and 4x MSAA variants; also the snapshot copy and the PNG encoding, the other
 // two parts of a recorded frame.
 //   build-render/bench/render_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
@@ -36,9 +36,10 @@ void build_many_boxes(World& world) {
   }
 }
 
-OffscreenRenderer& renderer() {
-  static OffscreenRenderer r(kWidth, kHeight);
-  return r;
+OffscreenRenderer& renderer(int samples = 1) {
+  static OffscreenRenderer single(kWidth, kHeight, 1);
+  static OffscreenRenderer multi(kWidth, kHeight, 4);
+  return samples > 1 ? multi : single;
 }
 
 long vertex_count(const RenderSnapshot& snap) {
@@ -47,14 +48,14 @@ long vertex_count(const RenderSnapshot& snap) {
   return n;
 }
 
-void render_scene(benchmark::State& state, void (*build)(World&), bool wireframe) {
+void render_scene(benchmark::State& state, void (*build)(World&), bool wireframe, int samples = 1) {
   World world;
   build(world);
   const RenderSnapshot snap = take_snapshot(world);
   ViewSettings view;
   view.wireframe = wireframe;
   for (auto _ : state) {
-    Image image = renderer().render(snap, view);
+    Image image = renderer(samples).render(snap, view);
     benchmark::DoNotOptimize(image.rgba.data());
   }
   state.counters["vertices"] = static_cast<double>(vertex_count(snap));
@@ -64,6 +65,9 @@ void BM_RenderBox1k(benchmark::State& state) { render_scene(state, build_single_
 void BM_RenderBox1kWireframe(benchmark::State& state) { render_scene(state, build_single_box, true); }
 void BM_RenderManyBoxes16k(benchmark::State& state) { render_scene(state, build_many_boxes, false); }
 void BM_RenderManyBoxes16kWireframe(benchmark::State& state) { render_scene(state, build_many_boxes, true); }
+
+void BM_RenderBox1kMsaa4(benchmark::State& state) { render_scene(state, build_single_box, false, 4); }
+void BM_RenderManyBoxes16kMsaa4(benchmark::State& state) { render_scene(state, build_many_boxes, false, 4); }
 
 void BM_TakeSnapshot16k(benchmark::State& state) {
   World world;
@@ -87,6 +91,8 @@ BENCHMARK(BM_RenderBox1k)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RenderBox1kWireframe)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RenderManyBoxes16k)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RenderManyBoxes16kWireframe)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RenderBox1kMsaa4)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RenderManyBoxes16kMsaa4)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_TakeSnapshot16k)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_WritePng640x480)->Unit(benchmark::kMillisecond)->UseRealTime();
 
