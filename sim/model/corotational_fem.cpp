@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "sim/model/rotation_extraction.h"
 
@@ -267,7 +268,14 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     if (in.fixed[i] != 0 || !dv_[i].allFinite()) dv_[i].setZero();
   }
   const double rhs_norm = std::sqrt(dot(rhs_, rhs_));
-  if (rhs_norm == 0.0) {
+  if (!std::isfinite(rhs_norm)) {
+    // Non-finite input (e.g. a NaN applied force): NaN comparisons would skip the CG loop and
+    // silently reuse the warm start, so make the result non-finite and let World::step report the
+    // fault and restore the state. The next step resets the non-finite warm start to zero.
+    std::fill(dv_.begin(), dv_.end(), Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+    result.converged = false;
+    result.solver_residual = std::numeric_limits<double>::quiet_NaN();
+  } else if (rhs_norm == 0.0) {
     std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
   } else {
     multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
