@@ -3,6 +3,8 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "apps/bench_command.h"
+#include "apps/experiment_command.h"
 #include "apps/mesh_command.h"
 #include "apps/run_command.h"
 #include "sim/input_error.h"
@@ -44,6 +46,40 @@ int main(int argc, char** argv) {
   convert->add_option("in", mesh_file, "Input mesh")->required();
   convert->add_option("out", mesh_out, "Output mesh (.vtu, .vtk, .node/.ele, .msh)")->required();
   convert->callback([&] { exit_code = pliant::run_mesh_convert(mesh_file, mesh_out, std::cout); });
+
+  pliant::ExperimentOptions experiment;
+  double experiment_duration = 0.0;
+  auto* experiment_cmd = app.add_subcommand(
+      "experiment", "Run a paper experiment with both contact methods: series, plots, summary.json, report.md");
+  experiment_cmd->add_option("name", experiment.name, "three_cubes, sphere_squeeze, fruit_dish, membrane_stack or a scene file")
+      ->required();
+  experiment_cmd->add_option("--out", experiment.out, "Output folder")->capture_default_str();
+  auto* experiment_duration_opt = experiment_cmd->add_option("--duration", experiment_duration, "Simulated time (s)")
+                                      ->check(CLI::PositiveNumber);
+  experiment_cmd->add_flag("--quiet", experiment.quiet, "Print nothing on success");
+  experiment_cmd->callback([&] {
+    if (experiment_duration_opt->count() > 0) experiment.duration = experiment_duration;
+    exit_code = pliant::run_experiment(experiment, std::cout);
+  });
+
+  pliant::BenchOptions bench;
+  std::string bench_contact;
+  bool bench_no_variants = false;
+  auto* bench_cmd = app.add_subcommand("bench", "Sizes and per-stage step times of every shipped scene");
+  bench_cmd->add_option("scenes", bench.scenes, "Scene files or paper scene names (default: all shipped scenes)");
+  bench_cmd->add_option("--json", bench.json, "Write the table as JSON");
+  bench_cmd->add_option("--csv", bench.csv, "Write the table as CSV");
+  bench_cmd->add_option("--steps", bench.steps, "Timed steps per scene")->check(CLI::PositiveNumber)->capture_default_str();
+  bench_cmd->add_option("--warm-up", bench.warm_up_steps, "Untimed steps first")->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  bench_cmd->add_option("--contact", bench_contact, "Contact method for every scene")
+      ->check(CLI::IsMember({"surface", "penalty", "none"}));
+  bench_cmd->add_flag("--no-variants", bench_no_variants, "No friction-off rows");
+  bench_cmd->callback([&] {
+    if (!bench_contact.empty()) bench.contact = bench_contact;
+    bench.friction_variants = !bench_no_variants;
+    exit_code = pliant::run_bench(bench, std::cout);
+  });
 
   try {
     app.parse(argc, argv);

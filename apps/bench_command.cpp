@@ -1,0 +1,211 @@
+// Design note. Every row is one scene run from its start for warm_up_steps untimed steps and then
+// `steps` timed ones, each stage timed by ClockStageProfiler (SteadyClock). Percentiles are
+// nearest-rank (StepTimeStats). "Model only what a scene requires" is shown, not asserted: the
+// response time is split into steps with and without colliding vertices, and scenes whose
+// materials have friction get a second row with contact.friction off. Wall-clock numbers on a
+// shared machine: read p50, not max.
+#include "apps/bench_command.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "apps/experiment_command.h"
+#include "interaction/clock.h"
+#include "interaction/scene/scene_runner.h"
+#include "interaction/step_time_stats.h"
+#include "sim/input_error.h"
+#include "sim/io/atomic_file.h"
+
+namespace pliant {
+namespace {
+
+// One row of the table.
+struct BenchRow {
+  std::string scene;
+  std::string variant;  ///< "" or "friction off"
+  std::string method;
+  long vertices = 0, tets = 0, surface_triangles = 0, bodies = 0;
+  long steps = 0;
+  StepTimeStats step, integrate, detect, depth, respond, report;
+  StepTimeStats respond_with_contact, respond_without_contact;
+  double colliding_mean = 0.0;
+  std::string fault;
+};
+
+bool uses_friction(const Scene& scene) {
+  if (!scene.world.contact.friction) return false;
+  for (const BodyDef& b : scene.bodies) {
+    if (b.material.friction > 0.0) return true;
+  }
+  for (const InstrumentSpec& i : scene.instruments) {
+    if (i.friction > 0.0) return true;
+  }
+  return false;
+}
+
+BenchRow bench_scene(const Scene& scene, const std::string& variant, const BenchOptions& options) {
+  SceneRunner runner(scene);
+  BenchRow row;
+  row.scene = scene.name;
+  row.variant = variant;
+  row.method = to_string(scene.world.contact.method);
+  for (const Body* body : runner.world().bodies()) {
+    if (body == nullptr) continue;
+    ++row.bodies;
+    row.vertices += body->mesh->vertex_count();
+    row.tets += body->mesh->tet_count();
+    row.surface_triangles += body->mesh->surface_triangle_count();
+  }
+  SteadyClock clock;
+  ClockStageProfiler profiler(clock);
+  long colliding_sum = 0;
+  for (long i = 0; i < options.warm_up_steps + options.steps; ++i) {
+    if (!runner.tick(&profiler)) {
+      row.fault = runner.fault();
+      break;
+    }
+    if (i < options.warm_up_steps) continue;
+    const auto sec = [&](StepStage s) { return profiler.seconds(s); };
+    row.step.add(profiler.total());
+    row.integrate.add(sec(StepStage::integrate));
+    row.detect.add(sec(StepStage::detect));
+    row.depth.add(sec(StepStage::depth));
+    row.respond.add(sec(StepStage::respond));
+    row.report.add(sec(StepStage::report));
+    const int colliding = runner.report().colliding_vertices;
+    (colliding > 0 ? row.respond_with_contact : row.respond_without_contact).add(sec(StepStage::respond));
+    colliding_sum += colliding;
+    ++row.steps;
+  }
+  row.colliding_mean = row.steps > 0 ? static_cast<double>(colliding_sum) / static_cast<double>(row.steps) : 0.0;
+  return row;
+}
+
+// p50 in ms, or null without samples.
+nlohmann::json p50_ms(const StepTimeStats& s) { return s.count() ? nlohmann::json(s.percentile(0.5) * 1e3) : nullptr; }
+
+nlohmann::json row_json(const BenchRow& r) {
+  return {{"scene", r.scene},
+          {"variant", r.variant},
+          {"method", r.method},
+          {"bodies", r.bodies},
+          {"vertices", r.vertices},
+          {"tets", r.tets},
+          {"surface_triangles", r.surface_triangles},
+          {"steps", r.steps},
+          {"step_ms_p50", p50_ms(r.step)},
+          {"step_ms_p99", r.step.count() ? nlohmann::json(r.step.percentile(0.99) * 1e3) : nullptr},
+          {"integrate_ms_p50", p50_ms(r.integrate)},
+          {"detect_ms_p50", p50_ms(r.detect)},
+          {"depth_ms_p50", p50_ms(r.depth)},
+          {"respond_ms_p50", p50_ms(r.respond)},
+          {"report_ms_p50", p50_ms(r.report)},
+          {"respond_ms_p50_with_contact", p50_ms(r.respond_with_contact)},
+          {"steps_with_contact", r.respond_with_contact.count()},
+          {"respond_ms_p50_without_contact", p50_ms(r.respond_without_contact)},
+          {"steps_without_contact", r.respond_without_contact.count()},
+          {"colliding_vertices_mean", r.colliding_mean},
+          {"fault", r.fault.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.fault)}};
+}
+
+std::string cell(const nlohmann::json& v) {
+  if (!v.is_number()) return "-";
+  std::ostringstream s;
+  const double x = v.get<double>();
+  s << std::fixed << std::setprecision(x < 0.1 ? 4 : (x < 10.0 ? 3 : 1)) << x;
+  return s.str();
+}
+
+const char* const kColumns[] = {"step_ms_p50", "step_ms_p99", "integrate_ms_p50", "detect_ms_p50", "depth_ms_p50",
+                                "respond_ms_p50", "respond_ms_p50_with_contact", "respond_ms_p50_without_contact"};
+
+std::vector<std::filesystem::path> shipped_scenes() {
+  namespace fs = std::filesystem;
+  const fs::path folder = find_scene_folder();
+  if (folder.empty()) throw InputError(InputErrorKind::io, "assets/scenes", "shipped scene folder not found");
+  std::vector<fs::path> files;
+  for (const fs::path& dir : {folder, folder / "paper"}) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) continue;
+    std::vector<fs::path> here;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+      if (entry.is_regular_file() && entry.path().extension() == ".json") here.push_back(entry.path());
+    }
+    std::sort(here.begin(), here.end());
+    files.insert(files.end(), here.begin(), here.end());
+  }
+  return files;
+}
+
+}  // namespace
+
+int run_bench(const BenchOptions& options, std::ostream& log) {
+  if (options.steps < 1) throw InputError(InputErrorKind::bad_value, "--steps", "must be at least 1");
+  std::vector<std::filesystem::path> files;
+  for (const std::string& s : options.scenes) files.push_back(resolve_scene(s));
+  if (files.empty()) files = shipped_scenes();
+
+  nlohmann::json rows = nlohmann::json::array();
+  bool failed = false;
+  log << std::left << std::setw(26) << "scene" << std::right << std::setw(8) << "verts" << std::setw(8) << "tets"
+      << std::setw(8) << "tris" << std::setw(9) << "step50" << std::setw(9) << "step99" << std::setw(9) << "integ"
+      << std::setw(9) << "detect" << std::setw(9) << "depth" << std::setw(9) << "respond" << std::setw(9) << "resp+c"
+      << std::setw(9) << "resp-c" << "   (ms, p50 unless 99; resp+c / resp-c: steps with / without contacts)\n"
+      << std::flush;
+  for (const auto& file : files) {
+    Scene scene = load_scene(file.string());
+    if (options.contact) scene.world.contact.method = contact_method_from_string(*options.contact);
+    std::vector<std::pair<Scene, std::string>> variants = {{scene, ""}};
+    if (options.friction_variants && uses_friction(scene)) {
+      Scene off = scene;
+      off.world.contact.friction = false;
+      variants.emplace_back(off, "friction off");
+    }
+    for (const auto& [s, variant] : variants) {
+      const BenchRow row = bench_scene(s, variant, options);
+      const nlohmann::json j = row_json(row);
+      rows.push_back(j);
+      failed = failed || !row.fault.empty();
+      const std::string label = row.scene + (variant.empty() ? "" : " (" + variant + ")");
+      log << std::left << std::setw(26) << label << std::right << std::setw(8) << row.vertices << std::setw(8)
+          << row.tets << std::setw(8) << row.surface_triangles;
+      for (const char* c : kColumns) log << std::setw(9) << cell(j[c]);
+      log << (row.fault.empty() ? "" : "  FAILED: " + row.fault) << "\n" << std::flush;
+    }
+  }
+
+  if (!options.json.empty()) {
+    const nlohmann::json doc = {{"steps", options.steps},
+                                {"warm_up_steps", options.warm_up_steps},
+                                {"clock", "steady_clock"},
+                                {"percentiles", "nearest rank"},
+                                {"rows", rows}};
+    write_file_atomically(options.json, doc.dump(2) + "\n");
+  }
+  if (!options.csv.empty()) {
+    std::ostringstream csv;
+    csv << "scene,variant,method,bodies,vertices,tets,surface_triangles,steps,step_ms_p50,step_ms_p99,"
+           "integrate_ms_p50,detect_ms_p50,depth_ms_p50,respond_ms_p50,report_ms_p50,respond_ms_p50_with_contact,"
+           "steps_with_contact,respond_ms_p50_without_contact,steps_without_contact,colliding_vertices_mean\n";
+    csv << std::setprecision(6);
+    for (const auto& r : rows) {
+      csv << r["scene"].get<std::string>() << ',' << r["variant"].get<std::string>() << ','
+          << r["method"].get<std::string>();
+      for (const char* k : {"bodies", "vertices", "tets", "surface_triangles", "steps", "step_ms_p50", "step_ms_p99",
+                            "integrate_ms_p50", "detect_ms_p50", "depth_ms_p50", "respond_ms_p50", "report_ms_p50",
+                            "respond_ms_p50_with_contact", "steps_with_contact", "respond_ms_p50_without_contact",
+                            "steps_without_contact", "colliding_vertices_mean"}) {
+        csv << ',';
+        if (!r[k].is_null()) csv << r[k];
+      }
+      csv << '\n';
+    }
+    write_file_atomically(options.csv, csv.str());
+  }
+  return failed ? 1 : 0;
+}
+
+}  // namespace pliant
