@@ -1,0 +1,100 @@
+// Stability at the extremes, the full matrix (issue 8, item 3; label "long", outside the default
+// suite): stiffness ratio 1e-6..1e6, Poisson's ratio up to 0.499, dt 1e-5..2e-2 s, instrument speed
+// up to 2 m/s, initial overlap up to 90% of the upper body's thickness, a sliver tet, 1 mg and
+// 1000 kg bodies, for both contact methods. Each case checks finiteness, energy against the work
+// put in, and bounded residual overlap (tests/sim/stability_harness.h; results in docs/stability.md).
+#include "sim/stability_harness.h"
+
+namespace pliant::stability {
+namespace {
+
+std::vector<Case> full_matrix() {
+  std::vector<Case> cases;
+  for (ContactMethod m : {ContactMethod::contact_surface, ContactMethod::penalty}) {
+    const std::string tag = std::string(to_string(m)) + " ";
+    for (double ratio : {1e-6, 1e-3, 1.0, 1e3, 1e6}) {
+      Case c{.name = tag + "stiffness ratio " + std::to_string(ratio), .method = m};
+      c.stiffness_ratio = ratio;
+      cases.push_back(c);
+    }
+    for (double nu : {0.45, 0.49, 0.499}) {
+      Case c{.name = tag + "poisson " + std::to_string(nu), .method = m};
+      c.poisson = nu;
+      cases.push_back(c);
+    }
+    for (double dt : {1e-5, 1e-4, 5e-3, 2e-2}) {
+      Case c{.name = tag + "dt " + std::to_string(dt), .method = m};
+      c.dt = dt;
+      cases.push_back(c);
+    }
+    for (double dt : {1e-5, 1e-3, 2e-2}) {
+      for (double speed : {0.01, 0.1, 0.5, 2.0}) {
+        Case c{.name = tag + "instrument " + std::to_string(speed) + " m/s dt " + std::to_string(dt), .method = m,
+               .partner = Partner::instrument};
+        c.dt = dt;
+        c.speed = speed;
+        cases.push_back(c);
+      }
+    }
+    for (double f : {0.1, 0.5, 0.9}) {
+      Case c{.name = tag + "initial overlap " + std::to_string(f), .method = m};
+      c.overlap_fraction = f;
+      cases.push_back(c);
+    }
+    {
+      Case c{.name = tag + "sliver on block", .method = m};
+      c.sliver = true;
+      cases.push_back(c);
+      Case d{.name = tag + "sliver instrument 0.5 m/s", .method = m, .partner = Partner::instrument};
+      d.sliver = true;
+      d.speed = 0.5;
+      cases.push_back(d);
+    }
+    for (double mass : {1e-6, 1000.0}) {
+      Case c{.name = tag + "upper mass " + std::to_string(mass) + " kg", .method = m};
+      c.upper_mass = mass;
+      cases.push_back(c);
+    }
+    // Corners: several extremes at once.
+    {
+      Case c{.name = tag + "corner ratio 1e6 nu 0.499 dt 2e-2", .method = m};
+      c.stiffness_ratio = 1e6;
+      c.poisson = 0.499;
+      c.dt = 2e-2;
+      cases.push_back(c);
+      Case d{.name = tag + "corner ratio 1e-6 nu 0.499 overlap 0.5", .method = m};
+      d.stiffness_ratio = 1e-6;
+      d.poisson = 0.499;
+      d.overlap_fraction = 0.5;
+      cases.push_back(d);
+      Case e{.name = tag + "corner 1000 kg dt 2e-2 ratio 1e3", .method = m};
+      e.upper_mass = 1000.0;
+      e.dt = 2e-2;
+      e.stiffness_ratio = 1e3;
+      cases.push_back(e);
+      Case f{.name = tag + "corner 1 mg dt 1e-5 sliver", .method = m};
+      f.upper_mass = 1e-6;
+      f.dt = 1e-5;
+      f.sliver = true;
+      cases.push_back(f);
+    }
+  }
+  return cases;
+}
+
+class LongStabilityMatrix : public ::testing::TestWithParam<Case> {};
+
+TEST_P(LongStabilityMatrix, StaysFiniteConservesEnergyAndBoundsOverlap) { expect_stable(GetParam()); }
+
+std::string case_name(const ::testing::TestParamInfo<Case>& info) {
+  std::string s = std::to_string(info.index) + "_" + info.param.name;
+  for (char& ch : s) {
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  }
+  return s;
+}
+
+INSTANTIATE_TEST_SUITE_P(Long, LongStabilityMatrix, ::testing::ValuesIn(full_matrix()), case_name);
+
+}  // namespace
+}  // namespace pliant::stability
