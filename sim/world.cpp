@@ -234,11 +234,11 @@ void World::integrate(double dt) {
       body->pose = body->target_pose;
       continue;
     }
-    std::vector<Vec3> external(body->positions.size());
-    for (size_t i = 0; i < external.size(); ++i) {
-      external[i] = body->masses[i] * settings_.gravity + body->applied_forces[i];
+    external_forces_.resize(body->positions.size());
+    for (size_t i = 0; i < external_forces_.size(); ++i) {
+      external_forces_[i] = body->masses[i] * settings_.gravity + body->applied_forces[i];
     }
-    IntegrationInput in{body->masses, body->fixed, external, dt};
+    IntegrationInput in{body->masses, body->fixed, external_forces_, dt};
     const IntegrationResult r = body->model->advance(body->positions, body->velocities, in);
     report_.solver_iterations_max = std::max(report_.solver_iterations_max, r.solver_iterations);
     report_.solver_converged = report_.solver_converged && r.converged;

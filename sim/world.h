@@ -91,6 +91,7 @@ class World {
   std::unique_ptr<ContactResponse> contact_surface_;
   std::unique_ptr<ContactResponse> penalty_;
 
+  std::vector<Vec3> external_forces_;  ///< integrate scratch: gravity plus applied forces
   std::vector<CollisionBody> collision_bodies_;
   CollisionFilter filter_;
   std::vector<VertexInTet> colliding_;
