@@ -7,6 +7,7 @@
 #include "apps/experiment_command.h"
 #include "apps/mesh_command.h"
 #include "apps/run_command.h"
+#include "apps/tradeoff_command.h"
 #include "sim/input_error.h"
 
 int main(int argc, char** argv) {
@@ -80,6 +81,20 @@ int main(int argc, char** argv) {
     bench.friction_variants = !bench_no_variants;
     exit_code = pliant::run_bench(bench, std::cout);
   });
+
+  pliant::TradeoffOptions tradeoff;
+  auto* tradeoff_cmd = app.add_subcommand(
+      "tradeoff", "Sweep binary-search iterations, CG iterations and dt against a reference: tradeoff.csv, Pareto plot");
+  tradeoff_cmd->add_option("scene", tradeoff.scene, "Scene file (JSON)")->required();
+  tradeoff_cmd->add_option("--out", tradeoff.out, "Output folder")->capture_default_str();
+  tradeoff_cmd->add_option("--steps", tradeoff.steps, "Scene steps per run")->check(CLI::PositiveNumber)->capture_default_str();
+  tradeoff_cmd->add_option("--binary-search", tradeoff.binary_search_iterations, "Binary-search iterations to try")
+      ->check(CLI::Range(0, 30));
+  tradeoff_cmd->add_option("--solver", tradeoff.solver_iterations, "CG iteration caps to try")->check(CLI::Range(1, 10000));
+  tradeoff_cmd->add_option("--dt", tradeoff.dt_factors, "dt factors (times the scene's dt) to try")
+      ->check(CLI::PositiveNumber);
+  tradeoff_cmd->add_flag("--quiet", tradeoff.quiet, "Print nothing on success");
+  tradeoff_cmd->callback([&] { exit_code = pliant::run_tradeoff(tradeoff, std::cout); });
 
   try {
     app.parse(argc, argv);
