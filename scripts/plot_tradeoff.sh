@@ -28,13 +28,13 @@ panel() {  # column, ylabel, title, all, front
     echo "     \"$tmp/default.csv\" using 17:(\$$col > 0 ? \$$col : 1/0) with points pt 5 ps 1.6 lc rgb \"#1f77b4\" title \"scene default\""
   else
     echo "unset logscale y"
-    echo "set label 1 \"every setting matches the reference exactly\" at graph 0.5, graph 0.5 center"
+    echo "set label 1 \"no non-zero error: no instrument, or every setting equals the reference\" at graph 0.5, graph 0.5 center"
     echo "plot \"$tmp/default.csv\" using 17:$col with points pt 5 ps 1.6 lc rgb \"#1f77b4\" title \"scene default\""
     echo "unset label 1"
   fi
 }
 {
-  echo "set terminal pngcairo size 1200,520 font \",10\""
+  echo "set terminal pngcairo size 1200,520 font \",10\" noenhanced"
   echo "set output \"$png\""
   echo "set datafile separator \",\""
   echo "set multiplot layout 1,2 title \"Speed-accuracy trade: $title (reference: most iterations, smallest dt)\""
