@@ -9,6 +9,9 @@
 
 #include "interaction/scene/scene.h"
 #include "interaction/scene/scene_runner.h"
+#include "sim/input_error.h"
+#include "sim/mesh/cylinder_mesh.h"
+#include "sim/mesh/sphere_mesh.h"
 
 namespace pliant {
 namespace {
@@ -140,6 +143,49 @@ INSTANTIATE_TEST_SUITE_P(Paper, ThreeCubesRun, ::testing::Values("surface", "pen
                          [](const auto& info) { return std::string(info.param); });
 INSTANTIATE_TEST_SUITE_P(Paper, SphereSqueezeRun, ::testing::Values("surface", "penalty"),
                          [](const auto& info) { return std::string(info.param); });
+
+// The procedural shapes the paper scenes use, through the scene loader: same mesh as the generator,
+// bad parameters named by JSON path.
+Scene scene_with_mesh(const std::string& mesh_json) {
+  const auto root = nlohmann::json::parse(R"({"bodies": [{"mesh": )" + mesh_json + "}]}");
+  return parse_scene(root, "shapes.json", ".");
+}
+
+TEST(PaperSceneShapes, SphereAndCylinderMatchTheirGenerators) {
+  const Scene sphere = scene_with_mesh(R"({"shape": "sphere", "radius": 0.04, "surface_vertices": 75, "shells": 2})");
+  const TetMeshPtr reference = make_sphere_mesh({0.04, 75, 2});
+  EXPECT_EQ(sphere.bodies[0].mesh->vertex_count(), reference->vertex_count());
+  EXPECT_EQ(sphere.bodies[0].mesh->vertex_count(), 2 * 75 + 1);
+  EXPECT_EQ(sphere.bodies[0].mesh->surface_triangle_count(), 2 * 75 - 4);
+  EXPECT_EQ(sphere.bodies[0].mesh->tet_count(), reference->tet_count());
+  const Scene cylinder = scene_with_mesh(R"({"shape": "cylinder", "radius": 0.02, "length": 0.1, "radial_cells": 2, "axial_cells": 3})");
+  const TetMeshPtr cyl = make_cylinder_mesh({0.02, 0.1, 2, 3});
+  EXPECT_EQ(cylinder.bodies[0].mesh->vertex_count(), cyl->vertex_count());
+  EXPECT_EQ(cylinder.bodies[0].mesh->vertex_count(), (1 + 3 * 2 * 3) * 4);  // disc 1 + 3n(n+1), 4 layers
+  const Scene ellipsoid = scene_with_mesh(R"({"shape": "ellipsoid", "semi_axes": [0.03, 0.02, 0.01]})");
+  EXPECT_EQ(ellipsoid.bodies[0].mesh->vertex_count(), 73 + 1);  // defaults: 73 surface points, 1 shell
+}
+
+void expect_error_at(const std::string& mesh_json, const std::string& path) {
+  try {
+    scene_with_mesh(mesh_json);
+    ADD_FAILURE() << "no error for " << mesh_json;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
+TEST(PaperSceneShapes, BadShapeParametersNameTheirJsonPath) {
+  expect_error_at(R"({"shape": "sphere", "radius": -1})", "/bodies/0/mesh/radius");
+  expect_error_at(R"({"shape": "sphere", "radius": 1, "surface_vertices": 5})", "/bodies/0/mesh/surface_vertices");
+  expect_error_at(R"({"shape": "sphere", "radius": 1, "shells": 0})", "/bodies/0/mesh/shells");
+  expect_error_at(R"({"shape": "sphere", "radius": 1, "size": [1, 1, 1]})", "/bodies/0/mesh");
+  expect_error_at(R"({"shape": "ellipsoid", "semi_axes": [1, 0, 1]})", "/bodies/0/mesh/semi_axes");
+  expect_error_at(R"({"shape": "cylinder", "radius": 1, "length": 1, "radial_cells": 0})",
+                  "/bodies/0/mesh/radial_cells");
+  expect_error_at(R"({"shape": "cylinder", "radius": 1})", "/bodies/0/mesh: missing required key 'length'");
+  expect_error_at(R"({"shape": "torus"})", "/bodies/0/mesh/shape");
+}
 
 }  // namespace
 }  // namespace pliant
