@@ -31,6 +31,19 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& sourc
     const auto pos = message.find("parse error");
     if (pos != std::string::npos) message = message.substr(pos);
     throw InputError(InputErrorKind::syntax, file_line(source, line), "invalid JSON: " + message);
+  } catch (const nlohmann::json::out_of_range& e) {
+    // A number literal too large for a double (e.g. 1e999, error 406) is not a parse_error: name
+    // the line of the literal, which the message quotes.
+    const std::string message = e.what();
+    long line = 0;
+    const auto open = message.find('\'');
+    const auto close = open == std::string::npos ? open : message.find('\'', open + 1);
+    if (close != std::string::npos) {
+      const auto at = text.find(message.substr(open + 1, close - open - 1));
+      if (at != std::string::npos) line = 1 + static_cast<long>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+    }
+    throw InputError(InputErrorKind::non_finite, line > 0 ? file_line(source, line) : source,
+                     "number out of range: " + message);
   }
 }
 
