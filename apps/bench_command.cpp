@@ -80,12 +80,15 @@ BenchRow bench_scene(const Scene& scene, const std::string& variant, const Bench
     colliding_sum += colliding;
     ++row.steps;
   }
-  row.colliding_mean = row.steps > 0 ? static_cast<double>(colliding_sum) / static_cast<double>(row.steps) : 0.0;
+  row.colliding_mean =
+      row.steps > 0 ? static_cast<double>(colliding_sum) / static_cast<double>(row.steps) : 0.0;
   return row;
 }
 
 // p50 in ms, or null without samples.
-nlohmann::json p50_ms(const StepTimeStats& s) { return s.count() ? nlohmann::json(s.percentile(0.5) * 1e3) : nullptr; }
+nlohmann::json p50_ms(const StepTimeStats& s) {
+  return s.count() ? nlohmann::json(s.percentile(0.5) * 1e3) : nullptr;
+}
 
 nlohmann::json row_json(const BenchRow& r) {
   return {{"scene", r.scene},
@@ -119,9 +122,15 @@ std::string cell(const nlohmann::json& v) {
   return s.str();
 }
 
-const char* const kColumns[] = {"step_ms_p50",      "step_ms_p99",   "integrate_ms_p50",
-                                "detect_ms_p50",    "depth_ms_p50",  "respond_ms_p50",
-                                "report_ms_p50",    "respond_ms_p50_with_contact", "respond_ms_p50_without_contact"};
+const char* const kColumns[] = {"step_ms_p50",
+                                "step_ms_p99",
+                                "integrate_ms_p50",
+                                "detect_ms_p50",
+                                "depth_ms_p50",
+                                "respond_ms_p50",
+                                "report_ms_p50",
+                                "respond_ms_p50_with_contact",
+                                "respond_ms_p50_without_contact"};
 
 std::vector<std::filesystem::path> shipped_scenes() {
   namespace fs = std::filesystem;
@@ -151,10 +160,11 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
 
   nlohmann::json rows = nlohmann::json::array();
   bool failed = false;
-  log << std::left << std::setw(32) << "scene" << std::right << std::setw(8) << "verts" << std::setw(8) << "tets"
-      << std::setw(8) << "tris" << std::setw(9) << "step50" << std::setw(9) << "step99" << std::setw(9) << "integ"
-      << std::setw(9) << "detect" << std::setw(9) << "depth" << std::setw(9) << "respond" << std::setw(9) << "report" << std::setw(9) << "resp+c"
-      << std::setw(9) << "resp-c" << "   (ms, p50 unless 99; resp+c / resp-c: steps with / without contacts)\n"
+  log << std::left << std::setw(32) << "scene" << std::right << std::setw(8) << "verts" << std::setw(8)
+      << "tets" << std::setw(8) << "tris" << std::setw(9) << "step50" << std::setw(9) << "step99"
+      << std::setw(9) << "integ" << std::setw(9) << "detect" << std::setw(9) << "depth" << std::setw(9)
+      << "respond" << std::setw(9) << "report" << std::setw(9) << "resp+c" << std::setw(9) << "resp-c"
+      << "   (ms, p50 unless 99; resp+c / resp-c: steps with / without contacts)\n"
       << std::flush;
   for (const auto& file : files) {
     Scene scene = load_scene(file.string());
@@ -189,16 +199,19 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
   if (!options.csv.empty()) {
     std::ostringstream csv;
     csv << "scene,variant,method,bodies,vertices,tets,surface_triangles,steps,step_ms_p50,step_ms_p99,"
-           "integrate_ms_p50,detect_ms_p50,depth_ms_p50,respond_ms_p50,report_ms_p50,respond_ms_p50_with_contact,"
-           "steps_with_contact,respond_ms_p50_without_contact,steps_without_contact,colliding_vertices_mean\n";
+           "integrate_ms_p50,detect_ms_p50,depth_ms_p50,respond_ms_p50,report_ms_p50,respond_ms_p50_with_"
+           "contact,"
+           "steps_with_contact,respond_ms_p50_without_contact,steps_without_contact,colliding_vertices_"
+           "mean\n";
     csv << std::setprecision(6);
     for (const auto& r : rows) {
       csv << r["scene"].get<std::string>() << ',' << r["variant"].get<std::string>() << ','
           << r["method"].get<std::string>();
-      for (const char* k : {"bodies", "vertices", "tets", "surface_triangles", "steps", "step_ms_p50", "step_ms_p99",
-                            "integrate_ms_p50", "detect_ms_p50", "depth_ms_p50", "respond_ms_p50", "report_ms_p50",
-                            "respond_ms_p50_with_contact", "steps_with_contact", "respond_ms_p50_without_contact",
-                            "steps_without_contact", "colliding_vertices_mean"}) {
+      for (const char* k :
+           {"bodies", "vertices", "tets", "surface_triangles", "steps", "step_ms_p50", "step_ms_p99",
+            "integrate_ms_p50", "detect_ms_p50", "depth_ms_p50", "respond_ms_p50", "report_ms_p50",
+            "respond_ms_p50_with_contact", "steps_with_contact", "respond_ms_p50_without_contact",
+            "steps_without_contact", "colliding_vertices_mean"}) {
         csv << ',';
         if (!r[k].is_null()) csv << r[k];
       }

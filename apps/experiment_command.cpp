@@ -32,11 +32,11 @@ namespace {
 
 // One step of one method.
 struct Sample {
-  double time = 0.0;                ///< s
-  double kinetic = 0.0;             ///< J
-  double potential = 0.0;           ///< J, gravitational (from the scene's lowest point) + elastic
-  double max_penetration = 0.0;     ///< m, before response
-  double residual_overlap = 0.0;    ///< m, after response
+  double time = 0.0;              ///< s
+  double kinetic = 0.0;           ///< J
+  double potential = 0.0;         ///< J, gravitational (from the scene's lowest point) + elastic
+  double max_penetration = 0.0;   ///< m, before response
+  double residual_overlap = 0.0;  ///< m, after response
   int colliding_vertices = 0;
   double stage_ms[kStepStageCount] = {};
   double step_ms = 0.0;
@@ -53,8 +53,8 @@ struct MethodRun {
 
 // The paper's figures and the targets for each experiment (null where none is given).
 struct PaperFigures {
-  std::optional<double> response_ms;       ///< paper, Pentium 4 3.2 GHz
-  std::optional<double> step_ms;           ///< paper
+  std::optional<double> response_ms;  ///< paper, Pentium 4 3.2 GHz
+  std::optional<double> step_ms;      ///< paper
   std::optional<double> target_response_ms;
   std::optional<double> target_step_ms;
   int vertices = 0;
@@ -71,7 +71,9 @@ const std::map<std::string, PaperFigures>& paper_figures() {
   return figures;
 }
 
-nlohmann::json opt_json(const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); }
+nlohmann::json opt_json(const std::optional<double>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
 
 // Gravitational potential of the movable vertices, heights from `h_ref` along -g (J).
 double gravitational_potential(const World& world, double h_ref) {
@@ -84,7 +86,8 @@ double gravitational_potential(const World& world, double h_ref) {
     if (body == nullptr || body->is_kinematic()) continue;
     for (int v = 0; v < body->vertex_count(); ++v) {
       if (body->is_immovable(v)) continue;
-      e += body->masses[static_cast<size_t>(v)] * g_norm * (body->positions[static_cast<size_t>(v)].dot(up) - h_ref);
+      e += body->masses[static_cast<size_t>(v)] * g_norm *
+           (body->positions[static_cast<size_t>(v)].dot(up) - h_ref);
     }
   }
   return e;
@@ -96,7 +99,8 @@ double kinetic_energy(const World& world) {
     if (body == nullptr || body->is_kinematic()) continue;
     for (int v = 0; v < body->vertex_count(); ++v) {
       if (body->is_immovable(v)) continue;
-      e += 0.5 * body->masses[static_cast<size_t>(v)] * body->velocities[static_cast<size_t>(v)].squaredNorm();
+      e +=
+          0.5 * body->masses[static_cast<size_t>(v)] * body->velocities[static_cast<size_t>(v)].squaredNorm();
     }
   }
   return e;
@@ -147,11 +151,13 @@ MethodRun run_method(const Scene& base, ContactMethod method, long steps, std::o
     s.max_penetration = r.max_penetration_before;
     s.residual_overlap = r.max_residual_overlap;
     s.colliding_vertices = r.colliding_vertices;
-    for (int k = 0; k < kStepStageCount; ++k) s.stage_ms[k] = profiler.seconds(static_cast<StepStage>(k)) * 1e3;
+    for (int k = 0; k < kStepStageCount; ++k)
+      s.stage_ms[k] = profiler.seconds(static_cast<StepStage>(k)) * 1e3;
     s.step_ms = profiler.total() * 1e3;
     run.samples.push_back(s);
     if (log != nullptr && (i + 1) % progress_every == 0) {
-      *log << "pliant experiment: " << run.method << " " << (i + 1) << "/" << steps << " steps\n" << std::flush;
+      *log << "pliant experiment: " << run.method << " " << (i + 1) << "/" << steps << " steps\n"
+           << std::flush;
     }
   }
   run.retried_steps = runner.retried_steps();
@@ -165,9 +171,9 @@ void write_steps_csv(const MethodRun& run, const std::filesystem::path& file) {
          "colliding_vertices,step_ms,integrate_ms,detect_ms,depth_ms,respond_ms,report_ms\n";
   const double e0 = run.initial_energy > 0.0 ? run.initial_energy : 1.0;
   for (const Sample& s : run.samples) {
-    out << s.time << ',' << 100.0 * s.kinetic / e0 << ',' << 100.0 * s.potential / e0 << ',' << s.kinetic << ','
-        << s.potential << ',' << s.max_penetration << ',' << s.residual_overlap << ',' << s.colliding_vertices << ','
-        << s.step_ms;
+    out << s.time << ',' << 100.0 * s.kinetic / e0 << ',' << 100.0 * s.potential / e0 << ',' << s.kinetic
+        << ',' << s.potential << ',' << s.max_penetration << ',' << s.residual_overlap << ','
+        << s.colliding_vertices << ',' << s.step_ms;
     for (double ms : s.stage_ms) out << ',' << ms;
     out << '\n';
   }
@@ -256,8 +262,10 @@ nlohmann::json method_summary(const MethodRun& run) {
       {"max_penetration_before_m", max_pen},
       {"max_residual_overlap_m", max_residual},
       {"mean_penetration_before_m", contact_steps > 0 ? pen_sum / static_cast<double>(contact_steps) : 0.0},
-      {"mean_residual_overlap_m", contact_steps > 0 ? residual_sum / static_cast<double>(contact_steps) : 0.0},
-      {"resting_residual_overlap_m", resting_count > 0 ? resting_sum / static_cast<double>(resting_count) : 0.0},
+      {"mean_residual_overlap_m",
+       contact_steps > 0 ? residual_sum / static_cast<double>(contact_steps) : 0.0},
+      {"resting_residual_overlap_m",
+       resting_count > 0 ? resting_sum / static_cast<double>(resting_count) : 0.0},
       {"retried_steps", run.retried_steps},
       {"fault", run.fault.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.fault)},
   };
@@ -281,7 +289,8 @@ bool write_plots(const std::filesystem::path& dir, const std::string& title, std
      << "set terminal pngcairo noenhanced size 800,400 font ',10'\nset output 'penetration.png'\n"
      << "set title '" << title << ": largest penetration depth per step'\n"
      << "set xlabel 'time (s)'\nset ylabel 'depth (mm)'\n"
-     << "plot 'surface/steps.csv' using 1:($6*1000) with lines lw 2 title 'contact surface: before response', "
+     << "plot 'surface/steps.csv' using 1:($6*1000) with lines lw 2 title 'contact surface: before "
+        "response', "
         "'surface/steps.csv' using 1:($7*1000) with lines lw 2 title 'contact surface: after response', "
         "'penalty/steps.csv' using 1:($6*1000) with lines lw 2 title 'penalty'\n";
   write_file_atomically((dir / "plots.gp").string(), gp.str());
@@ -306,24 +315,26 @@ std::string report_markdown(const nlohmann::json& summary) {
   md << "# Experiment " << summary["name"].get<std::string>() << "\n\n"
      << summary["vertices"] << " vertices, " << summary["tets"] << " tets, " << summary["surface_triangles"]
      << " surface triangles (paper: " << paper["vertices"] << " / " << paper["surface_triangles"] << "); "
-     << summary["steps"] << " steps of " << fmt(summary["dt"], 1e3) << " ms. Timings are wall clock on the machine that ran this; p50 is robust to load.\n\n"
+     << summary["steps"] << " steps of " << fmt(summary["dt"], 1e3)
+     << " ms. Timings are wall clock on the machine that ran this; p50 is robust to load.\n\n"
      << "| | contact surface | penalty | paper (Pentium 4) | target |\n|---|---|---|---|---|\n"
-     << "| response ms, mean (p50) | " << fmt(s["response_ms"]["mean"]) << " (" << fmt(s["response_ms"]["p50"])
-     << ") | " << fmt(p["response_ms"]["mean"]) << " (" << fmt(p["response_ms"]["p50"]) << ") | "
-     << fmt(paper["response_ms"]) << " | " << fmt(paper["target_response_ms"]) << " |\n"
-     << "| response ms in steps with contact, mean | " << fmt(s["response_ms_steps_with_contact"]["mean"]) << " | "
-     << fmt(p["response_ms_steps_with_contact"]["mean"]) << " | | |\n"
+     << "| response ms, mean (p50) | " << fmt(s["response_ms"]["mean"]) << " ("
+     << fmt(s["response_ms"]["p50"]) << ") | " << fmt(p["response_ms"]["mean"]) << " ("
+     << fmt(p["response_ms"]["p50"]) << ") | " << fmt(paper["response_ms"]) << " | "
+     << fmt(paper["target_response_ms"]) << " |\n"
+     << "| response ms in steps with contact, mean | " << fmt(s["response_ms_steps_with_contact"]["mean"])
+     << " | " << fmt(p["response_ms_steps_with_contact"]["mean"]) << " | | |\n"
      << "| detect + depth + response ms, mean | " << fmt(s["collision_handling_ms"]["mean"]) << " | "
      << fmt(p["collision_handling_ms"]["mean"]) << " | | |\n"
      << "| step ms, mean (p50) | " << fmt(s["step_ms"]["mean"]) << " (" << fmt(s["step_ms"]["p50"]) << ") | "
-     << fmt(p["step_ms"]["mean"]) << " (" << fmt(p["step_ms"]["p50"]) << ") | " << fmt(paper["step_ms"]) << " | "
-     << fmt(paper["target_step_ms"]) << " |\n"
+     << fmt(p["step_ms"]["mean"]) << " (" << fmt(p["step_ms"]["p50"]) << ") | " << fmt(paper["step_ms"])
+     << " | " << fmt(paper["target_step_ms"]) << " |\n"
      << "| max penetration before response (mm) | " << fmt(s["max_penetration_before_m"], 1e3) << " | "
      << fmt(p["max_penetration_before_m"], 1e3) << " | | |\n"
      << "| max residual overlap after response (mm) | " << fmt(s["max_residual_overlap_m"], 1e3) << " | "
      << fmt(p["max_residual_overlap_m"], 1e3) << " | | |\n"
-     << "| mean residual overlap, steps with contact (mm) | " << fmt(s["mean_residual_overlap_m"], 1e3) << " | "
-     << fmt(p["mean_residual_overlap_m"], 1e3) << " | | |\n"
+     << "| mean residual overlap, steps with contact (mm) | " << fmt(s["mean_residual_overlap_m"], 1e3)
+     << " | " << fmt(p["mean_residual_overlap_m"], 1e3) << " | | |\n"
      << "| resting residual overlap, mean over the last fifth (mm) | "
      << fmt(s["resting_residual_overlap_m"], 1e3) << " | " << fmt(p["resting_residual_overlap_m"], 1e3)
      << " | | surface <= 1% of penalty |\n"
@@ -332,9 +343,10 @@ std::string report_markdown(const nlohmann::json& summary) {
      << "| time to rest (s) | " << fmt(s["time_to_rest_s"]) << " | " << fmt(p["time_to_rest_s"])
      << " | | surface <= half of penalty |\n"
      << "| final kinetic / potential energy (% of E0) | " << fmt(s["final_kinetic_pct"]) << " / "
-     << fmt(s["final_potential_pct"]) << " | " << fmt(p["final_kinetic_pct"]) << " / " << fmt(p["final_potential_pct"])
-     << " | | |\n\n"
-     << "Time to rest: from the kinetic-energy peak until it stays below 1% of the peak (n/a: not within the run).\n"
+     << fmt(s["final_potential_pct"]) << " | " << fmt(p["final_kinetic_pct"]) << " / "
+     << fmt(p["final_potential_pct"]) << " | | |\n\n"
+     << "Time to rest: from the kinetic-energy peak until it stays below 1% of the peak (n/a: not within the "
+        "run).\n"
      << "Resting residual-overlap ratio surface / penalty: " << fmt(summary["residual_overlap_ratio"])
      << "; time-to-rest ratio: " << fmt(summary["rest_time_ratio"]) << ".\n\n";
   if (summary["plots"].get<bool>()) md << "![energy](energy.png)\n\n![penetration](penetration.png)\n";
@@ -370,13 +382,15 @@ std::filesystem::path resolve_scene(const std::string& name_or_path) {
   if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
   const fs::path folder = find_scene_folder();
   if (!folder.empty()) {
-    for (const fs::path& candidate : {folder / "paper" / (name_or_path + ".json"), folder / (name_or_path + ".json")}) {
+    for (const fs::path& candidate :
+         {folder / "paper" / (name_or_path + ".json"), folder / (name_or_path + ".json")}) {
       if (fs::is_regular_file(candidate, ec)) return candidate;
     }
   }
   throw InputError(InputErrorKind::io, name_or_path,
-                   "no such scene file, and no assets/scenes/paper/" + name_or_path + ".json (known: three_cubes, "
-                   "sphere_squeeze, fruit_dish, membrane_stack)");
+                   "no such scene file, and no assets/scenes/paper/" + name_or_path +
+                       ".json (known: three_cubes, "
+                       "sphere_squeeze, fruit_dish, membrane_stack)");
 }
 
 int run_experiment(const ExperimentOptions& options, std::ostream& log) {
@@ -390,7 +404,9 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
   std::error_code ec;
   for (const char* m : {"surface", "penalty"}) {
     std::filesystem::create_directories(out / m, ec);
-    if (ec) throw InputError(InputErrorKind::io, (out / m).string(), "cannot create output folder: " + ec.message());
+    if (ec)
+      throw InputError(InputErrorKind::io, (out / m).string(),
+                       "cannot create output folder: " + ec.message());
   }
 
   std::ostream* progress = options.quiet ? nullptr : &log;
@@ -411,8 +427,12 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
     tets += body->mesh->tet_count();
     triangles += body->mesh->surface_triangle_count();
   }
-  nlohmann::json paper = {{"response_ms", nullptr}, {"step_ms", nullptr}, {"target_response_ms", nullptr},
-                          {"target_step_ms", nullptr}, {"vertices", nullptr}, {"surface_triangles", nullptr},
+  nlohmann::json paper = {{"response_ms", nullptr},
+                          {"step_ms", nullptr},
+                          {"target_response_ms", nullptr},
+                          {"target_step_ms", nullptr},
+                          {"vertices", nullptr},
+                          {"surface_triangles", nullptr},
                           {"machine", "Pentium 4, 3.20 GHz, NVIDIA Quadro FX 3400"}};
   if (auto it = paper_figures().find(scene.name); it != paper_figures().end()) {
     const PaperFigures& f = it->second;
@@ -423,7 +443,8 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
     paper["vertices"] = f.vertices;
     paper["surface_triangles"] = f.surface_triangles;
   }
-  nlohmann::json methods = {{"surface", method_summary(runs["surface"])}, {"penalty", method_summary(runs["penalty"])}};
+  nlohmann::json methods = {{"surface", method_summary(runs["surface"])},
+                            {"penalty", method_summary(runs["penalty"])}};
   const double residual_penalty = methods["penalty"]["resting_residual_overlap_m"].get<double>();
   nlohmann::json summary = {
       {"name", scene.name},
@@ -442,22 +463,24 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
        residual_penalty > 0.0
            ? nlohmann::json(methods["surface"]["resting_residual_overlap_m"].get<double>() / residual_penalty)
            : nlohmann::json(nullptr)},
-      {"rest_time_ratio",
-       methods["surface"]["time_to_rest_s"].is_number() && methods["penalty"]["time_to_rest_s"].is_number() &&
-               methods["penalty"]["time_to_rest_s"].get<double>() > 0.0
-           ? nlohmann::json(methods["surface"]["time_to_rest_s"].get<double>() /
-                            methods["penalty"]["time_to_rest_s"].get<double>())
-           : nlohmann::json(nullptr)},
+      {"rest_time_ratio", methods["surface"]["time_to_rest_s"].is_number() &&
+                                  methods["penalty"]["time_to_rest_s"].is_number() &&
+                                  methods["penalty"]["time_to_rest_s"].get<double>() > 0.0
+                              ? nlohmann::json(methods["surface"]["time_to_rest_s"].get<double>() /
+                                               methods["penalty"]["time_to_rest_s"].get<double>())
+                              : nlohmann::json(nullptr)},
       {"plots", plots},
   };
   write_file_atomically((out / "summary.json").string(), summary.dump(2) + "\n");
   write_file_atomically((out / "report.md").string(), report_markdown(summary));
   if (!options.quiet) {
     log << "pliant experiment: " << scene.name << ": response ms mean surface "
-        << fmt(methods["surface"]["response_ms"]["mean"]) << ", penalty " << fmt(methods["penalty"]["response_ms"]["mean"])
-        << "; max residual overlap mm surface " << fmt(methods["surface"]["max_residual_overlap_m"], 1e3)
-        << ", penalty " << fmt(methods["penalty"]["max_residual_overlap_m"], 1e3) << "; wrote " << out.string()
-        << "/{summary.json,report.md,surface/,penalty/" << (plots ? ",energy.png,penetration.png" : "") << "}\n";
+        << fmt(methods["surface"]["response_ms"]["mean"]) << ", penalty "
+        << fmt(methods["penalty"]["response_ms"]["mean"]) << "; max residual overlap mm surface "
+        << fmt(methods["surface"]["max_residual_overlap_m"], 1e3) << ", penalty "
+        << fmt(methods["penalty"]["max_residual_overlap_m"], 1e3) << "; wrote " << out.string()
+        << "/{summary.json,report.md,surface/,penalty/" << (plots ? ",energy.png,penetration.png" : "")
+        << "}\n";
   }
   for (const auto& [name, run] : runs) {
     if (!run.fault.empty()) {

@@ -52,11 +52,12 @@ int main(int argc, char** argv) {
   double experiment_duration = 0.0;
   auto* experiment_cmd = app.add_subcommand(
       "experiment", "Run a paper experiment with both contact methods: series, plots, summary.json, report.md");
-  experiment_cmd->add_option("name", experiment.name, "three_cubes, sphere_squeeze, fruit_dish, membrane_stack or a scene file")
+  experiment_cmd
+      ->add_option("name", experiment.name, "three_cubes, sphere_squeeze, fruit_dish, membrane_stack or a scene file")
       ->required();
   experiment_cmd->add_option("--out", experiment.out, "Output folder")->capture_default_str();
-  auto* experiment_duration_opt = experiment_cmd->add_option("--duration", experiment_duration, "Simulated time (s)")
-                                      ->check(CLI::PositiveNumber);
+  auto* experiment_duration_opt =
+      experiment_cmd->add_option("--duration", experiment_duration, "Simulated time (s)")->check(CLI::PositiveNumber);
   experiment_cmd->add_flag("--quiet", experiment.quiet, "Print nothing on success");
   experiment_cmd->callback([&] {
     if (experiment_duration_opt->count() > 0) experiment.duration = experiment_duration;
@@ -70,7 +71,9 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("scenes", bench.scenes, "Scene files or paper scene names (default: all shipped scenes)");
   bench_cmd->add_option("--json", bench.json, "Write the table as JSON");
   bench_cmd->add_option("--csv", bench.csv, "Write the table as CSV");
-  bench_cmd->add_option("--steps", bench.steps, "Timed steps per scene")->check(CLI::PositiveNumber)->capture_default_str();
+  bench_cmd->add_option("--steps", bench.steps, "Timed steps per scene")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   bench_cmd->add_option("--warm-up", bench.warm_up_steps, "Untimed steps first")->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   bench_cmd->add_option("--contact", bench_contact, "Contact method for every scene")

@@ -48,7 +48,8 @@ nlohmann::json read_json(const fs::path& file) {
 }
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("pliant_experiment_test_" + std::to_string(::getpid())) / name;
+  const fs::path dir =
+      fs::temp_directory_path() / ("pliant_experiment_test_" + std::to_string(::getpid())) / name;
   fs::remove_all(dir);
   return dir;
 }
@@ -107,10 +108,12 @@ TEST(BenchCommand, OneRowPerSceneAndFrictionVariant) {
 TEST(ExperimentCommand, BadInputExitsWith2) {
   if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
   const fs::path out = scratch("bad");
-  for (const auto& [args, message] : {std::pair<std::string, std::string>{"experiment no_such_scene --out " + out.string(), "no_such_scene"},
-                                      {"experiment three_cubes --out " + out.string() + " --duration 0", "--duration"},
-                                      {"bench no_such_scene", "no_such_scene"},
-                                      {"bench --steps 0", "--steps"}}) {
+  for (const auto& [args, message] :
+       {std::pair<std::string, std::string>{"experiment no_such_scene --out " + out.string(),
+                                            "no_such_scene"},
+        {"experiment three_cubes --out " + out.string() + " --duration 0", "--duration"},
+        {"bench no_such_scene", "no_such_scene"},
+        {"bench --steps 0", "--steps"}}) {
     const CliResult r = run_cli(args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
     EXPECT_NE(r.output.find(message), std::string::npos) << r.output;

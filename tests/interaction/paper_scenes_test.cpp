@@ -49,14 +49,16 @@ TEST_P(PaperSceneSize, WithinFivePercentOfThePaper) {
   EXPECT_EQ(scene.name, p.scene);
   const SceneInstance instance = instantiate_scene(scene);
   const Counts c = count(*instance.world);
-  EXPECT_NEAR(static_cast<double>(c.vertices), static_cast<double>(p.vertices), 0.05 * static_cast<double>(p.vertices));
+  EXPECT_NEAR(static_cast<double>(c.vertices), static_cast<double>(p.vertices),
+              0.05 * static_cast<double>(p.vertices));
   EXPECT_NEAR(static_cast<double>(c.surface_triangles), static_cast<double>(p.surface_triangles),
               0.05 * static_cast<double>(p.surface_triangles));
 }
 
 // Paper, Sec. 5: Fig. 7 (323 / 624), Fig. 8 (95 / 166), Fig. 9 (16030 / 27116), Fig. 10 (2178 / 4320).
 INSTANTIATE_TEST_SUITE_P(Paper, PaperSceneSize,
-                         ::testing::Values(PaperSize{"three_cubes", 323, 624}, PaperSize{"sphere_squeeze", 95, 166},
+                         ::testing::Values(PaperSize{"three_cubes", 323, 624},
+                                           PaperSize{"sphere_squeeze", 95, 166},
                                            PaperSize{"fruit_dish", 16030, 27116},
                                            PaperSize{"membrane_stack", 2178, 4320}),
                          [](const auto& info) { return std::string(info.param.scene); });
@@ -66,7 +68,8 @@ TEST(PaperScenes, ExactSizesWhereThePaperCountsAreReachable) {
   EXPECT_EQ(count(*instantiate_scene(load_scene(paper_scene("three_cubes"))).world).vertices, 323);
   EXPECT_EQ(count(*instantiate_scene(load_scene(paper_scene("three_cubes"))).world).surface_triangles, 624);
   EXPECT_EQ(count(*instantiate_scene(load_scene(paper_scene("membrane_stack"))).world).vertices, 2178);
-  EXPECT_EQ(count(*instantiate_scene(load_scene(paper_scene("membrane_stack"))).world).surface_triangles, 4320);
+  EXPECT_EQ(count(*instantiate_scene(load_scene(paper_scene("membrane_stack"))).world).surface_triangles,
+            4320);
 }
 
 // Mass-weighted mean height of a body (m).
@@ -152,13 +155,15 @@ Scene scene_with_mesh(const std::string& mesh_json) {
 }
 
 TEST(PaperSceneShapes, SphereAndCylinderMatchTheirGenerators) {
-  const Scene sphere = scene_with_mesh(R"({"shape": "sphere", "radius": 0.04, "surface_vertices": 75, "shells": 2})");
+  const Scene sphere =
+      scene_with_mesh(R"({"shape": "sphere", "radius": 0.04, "surface_vertices": 75, "shells": 2})");
   const TetMeshPtr reference = make_sphere_mesh({0.04, 75, 2});
   EXPECT_EQ(sphere.bodies[0].mesh->vertex_count(), reference->vertex_count());
   EXPECT_EQ(sphere.bodies[0].mesh->vertex_count(), 2 * 75 + 1);
   EXPECT_EQ(sphere.bodies[0].mesh->surface_triangle_count(), 2 * 75 - 4);
   EXPECT_EQ(sphere.bodies[0].mesh->tet_count(), reference->tet_count());
-  const Scene cylinder = scene_with_mesh(R"({"shape": "cylinder", "radius": 0.02, "length": 0.1, "radial_cells": 2, "axial_cells": 3})");
+  const Scene cylinder = scene_with_mesh(
+      R"({"shape": "cylinder", "radius": 0.02, "length": 0.1, "radial_cells": 2, "axial_cells": 3})");
   const TetMeshPtr cyl = make_cylinder_mesh({0.02, 0.1, 2, 3});
   EXPECT_EQ(cylinder.bodies[0].mesh->vertex_count(), cyl->vertex_count());
   EXPECT_EQ(cylinder.bodies[0].mesh->vertex_count(), (1 + 3 * 2 * 3) * 4);  // disc 1 + 3n(n+1), 4 layers
@@ -177,7 +182,8 @@ void expect_error_at(const std::string& mesh_json, const std::string& path) {
 
 TEST(PaperSceneShapes, BadShapeParametersNameTheirJsonPath) {
   expect_error_at(R"({"shape": "sphere", "radius": -1})", "/bodies/0/mesh/radius");
-  expect_error_at(R"({"shape": "sphere", "radius": 1, "surface_vertices": 5})", "/bodies/0/mesh/surface_vertices");
+  expect_error_at(R"({"shape": "sphere", "radius": 1, "surface_vertices": 5})",
+                  "/bodies/0/mesh/surface_vertices");
   expect_error_at(R"({"shape": "sphere", "radius": 1, "shells": 0})", "/bodies/0/mesh/shells");
   expect_error_at(R"({"shape": "sphere", "radius": 1, "size": [1, 1, 1]})", "/bodies/0/mesh");
   expect_error_at(R"({"shape": "ellipsoid", "semi_axes": [1, 0, 1]})", "/bodies/0/mesh/semi_axes");
