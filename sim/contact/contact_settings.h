@@ -16,6 +16,9 @@ struct ContactSettings {
   ContactMethod method = ContactMethod::contact_surface;
   int binary_search_iterations = 4;   ///< paper: four suffice
   bool finishing_projection = false;  ///< beyond the paper: remove the residual overlap exactly
+  /// Beyond the paper: after the binary search, one secant (regula falsi) estimate of the balance
+  /// from the samples the search took, so stiffness ratios beyond 2^(n+1) are represented.
+  bool secant_refinement = false;
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0

@@ -112,6 +112,42 @@ void finishing_projection(std::span<Body* const> bodies, std::span<const VertexC
 
 }  // namespace
 
+void ContactSurfaceResponse::SearchSamples::add(double fraction, double difference) {
+  previous = last;
+  has_previous = has_last;
+  last = {fraction, difference};
+  has_last = true;
+  if (difference > 0.0) {
+    above = last;
+    has_above = true;
+  } else {
+    below = last;
+    has_below = true;
+  }
+}
+
+// The pressure difference grows with the fraction (more displacement: more own pressure, less of
+// the other's). Interpolate its zero between the closest samples of either sign (regula falsi),
+// clamped to that bracket; if every sample had the same sign, extrapolate from the last two,
+// clamped between the last sample and the end of [0, 1] it points to. With linear elasticity and
+// one vertex per side this lands on the balance exactly, where bisection stops within
+// 1/2^(n+1): at a stiffness ratio of 1e6 that floor leaves the stiff side 1/32 of the overlap.
+double ContactSurfaceResponse::SearchSamples::refine(double bisection) const {
+  auto zero_of = [](const Sample& a, const Sample& b) {
+    return a.fraction - a.difference * (b.fraction - a.fraction) / (b.difference - a.difference);
+  };
+  if (has_above && has_below) {
+    if (above.difference == below.difference) return bisection;
+    const double lo = std::min(above.fraction, below.fraction), hi = std::max(above.fraction, below.fraction);
+    return std::clamp(zero_of(below, above), lo, hi);
+  }
+  if (!has_previous || last.difference == previous.difference || last.fraction == previous.fraction) {
+    return bisection;
+  }
+  const double estimate = zero_of(previous, last);
+  return has_above ? std::clamp(estimate, 0.0, last.fraction) : std::clamp(estimate, last.fraction, 1.0);
+}
+
 void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                      double dt, const ContactSettings& settings,
                                      StepReport& report) {
@@ -122,17 +158,27 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Stage 4: binary search on the pressure difference.
   place_region(bodies, vertices);
   const int iterations = std::max(0, settings.binary_search_iterations);
+  samples_.assign(vertices.size(), SearchSamples{});
   for (int k = 1; k <= iterations; ++k) {
     evaluate_pressures(bodies, region_);
     const double step = std::ldexp(1.0, -(k + 1));  // 1 / 2^(k+1)
-    for (auto& v : vertices) {
+    for (size_t i = 0; i < vertices.size(); ++i) {
+      auto& v = vertices[i];
       if (v.immovable || v.rigid_partner) continue;
       const double difference = v.pressure - partner_pressure(region_, v);
+      samples_[i].add(v.fraction, difference);
       v.fraction += difference > 0.0 ? -step : step;
     }
     place_region(bodies, vertices);
   }
   report.binary_search_iterations = iterations;
+  if (settings.secant_refinement) {
+    for (size_t i = 0; i < vertices.size(); ++i) {
+      auto& v = vertices[i];
+      if (!v.immovable && !v.rigid_partner) v.fraction = samples_[i].refine(v.fraction);
+    }
+    place_region(bodies, vertices);
+  }
 
   if (settings.finishing_projection) finishing_projection(bodies, contacts, region_, 32);
 

@@ -17,7 +17,21 @@ class ContactSurfaceResponse final : public ContactResponse {
                const ContactSettings& settings, StepReport& report) override;
 
  private:
-  DeformationRegion region_;              ///< stage 3 result, reused across steps
+  /// The search's samples of one vertex: (fraction, own minus other pressure).
+  struct SearchSamples {
+    struct Sample {
+      double fraction = 0.0;
+      double difference = 0.0;
+    };
+    Sample last, previous, above, below;  ///< above: difference > 0; below: <= 0
+    bool has_last = false, has_previous = false, has_above = false, has_below = false;
+    void add(double fraction, double difference);
+    /// Secant estimate of the balance (see ContactSettings::secant_refinement).
+    double refine(double bisection) const;
+  };
+
+  DeformationRegion region_;
+  std::vector<SearchSamples> samples_;              ///< stage 3 result, reused across steps
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
 };
 
