@@ -15,7 +15,11 @@ export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_err
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
 start=$(date +%s)
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLIANT_SANITIZE=ON -DPLIANT_RENDER=OFF -DPLIANT_WERROR=ON
+# GCC 12 reports false -Wmaybe-uninitialized inside std::function/std::regex when built with
+# -fsanitize (tests/sim/mesh_io_test.cpp fails -Werror on it); the GCC manual warns that sanitizers
+# make this warning unreliable, so it is off for this leg only.
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLIANT_SANITIZE=ON -DPLIANT_RENDER=OFF -DPLIANT_WERROR=ON \
+  -DCMAKE_CXX_FLAGS="${CXXFLAGS:-} -Wno-maybe-uninitialized"
 cmake --build "$build" -j"$jobs"
 built=$(date +%s)
 status=0
