@@ -19,6 +19,11 @@ std::array<int, 3> read_cells(const JsonReader& j) {
     cells[i] = j.at(i).integer();
     if (cells[i] < 1 || cells[i] > 512) j.at(i).fail(InputErrorKind::bad_value, "expected an integer in [1, 512]");
   }
+  // Each axis may be fine and the product not: 512^3 cells would be 805 million tets.
+  constexpr long kMaxCells = 2'000'000;  // 12 million tets, about 3 GB with the model
+  if (static_cast<long>(cells[0]) * cells[1] * cells[2] > kMaxCells) {
+    j.fail(InputErrorKind::bad_value, "nx * ny * nz must not exceed " + std::to_string(kMaxCells) + " cells");
+  }
   return cells;
 }
 
