@@ -200,7 +200,7 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
   { StageScope s(profiler, StepStage::detect); detect(); }
   { StageScope s(profiler, StepStage::depth); compute_penetration_depth(); }
   { StageScope s(profiler, StepStage::respond); respond(dt); }
-  { StageScope s(profiler, StepStage::report); report(dt); }
+  { StageScope s(profiler, StepStage::report); report(); }
 
   if (!report_.all_finite) {
     // Restore the last good state; the caller decides whether to go on at a smaller dt.
@@ -272,7 +272,6 @@ void World::detect() {
   }
   for (const auto& [a, b] : disabled_pairs_) filter_.set(a, b, false);
   colliding_.clear();
-  if (settings_.contact.method == ContactMethod::none && collision_bodies_.empty()) return;
   spatial_hash_.detect(collision_bodies_, filter_, colliding_);
   report_.colliding_vertices = static_cast<int>(colliding_.size());
 }
@@ -319,7 +318,7 @@ bool World::state_is_finite() const {
   return true;
 }
 
-void World::report(double dt) {
+void World::report() {
   report_.all_finite = state_is_finite();
   for (const auto& r : report_.reactions) {
     if (!r.force.allFinite() || !r.torque.allFinite()) report_.all_finite = false;
@@ -349,7 +348,6 @@ void World::report(double dt) {
   }
   report_.energy.work_by_kinematic = accumulated_work_.work_by_kinematic;
   report_.energy.work_by_supports = accumulated_work_.work_by_supports;
-  (void)dt;
   if (!std::isfinite(report_.energy.total())) report_.all_finite = false;
 }
 

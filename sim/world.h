@@ -74,7 +74,7 @@ class World {
   void detect();
   void compute_penetration_depth();
   void respond(double dt);
-  void report(double dt);
+  void report();
 
   void rebuild_body_view();
   bool state_is_finite() const;
