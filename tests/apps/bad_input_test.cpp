@@ -6,6 +6,8 @@
 // (no summary.json, steps.csv, tool_forces.csv or *.partial) since it loads everything first.
 #include <gtest/gtest.h>
 
+#include "support/run_cli.h"
+
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -204,25 +206,9 @@ TEST(BadInput, EveryMalformedInputGivesItsKindAndLocation) {
 
 // ---- the command line ----
 
-fs::path pliant_binary() { return fs::path(PLIANT_BINARY_DIR) / "apps" / "pliant"; }
-
-struct CliResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CliResult run_cli(const std::string& args) {
-  const std::string command = pliant_binary().string() + " " + args + " 2>&1";
-  CliResult result;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buffer[4096];
-  size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) result.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using testing::CliResult;
+using testing::pliant_binary;
+using testing::run_cli;
 
 // Files `pliant run` writes; none may exist after a failed load.
 std::vector<std::string> leftovers(const fs::path& out) {

@@ -2,38 +2,22 @@
 // fields they promise, both methods' series, the contact surface leaving less overlap than the
 // penalty springs, and bad input -> exit code 2. Skipped when the pliant binary is not built.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+
+#include "support/run_cli.h"
 
 namespace pliant {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path pliant_binary() { return fs::path(PLIANT_BINARY_DIR) / "apps" / "pliant"; }
-
-struct CliResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CliResult run_cli(const std::string& args) {
-  const std::string command = pliant_binary().string() + " " + args + " 2>&1";
-  CliResult result;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buffer[4096];
-  size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) result.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using testing::CliResult;
+using testing::pliant_binary;
+using testing::run_cli;
 
 long count_lines(const fs::path& file) {
   std::ifstream in(file);
