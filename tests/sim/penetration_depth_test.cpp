@@ -268,17 +268,7 @@ TEST(PenetrationDepth, OutputOrderAndOneEntryPerPenetratedBody) {
 }  // namespace pliant
 
 // Counts heap allocations in this test executable (replaces the global operator new).
-namespace {
-std::atomic<long long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "support/allocation_counter.h"
 
 namespace pliant {
 namespace {
@@ -306,11 +296,11 @@ TEST(PenetrationDepth, NoAllocationPerStepAfterWarmUp) {
       for (size_t i = 0; i < rest.size(); ++i) {  // same vector, moved in place
         s.probe_x[i] = rest[i] + Vec3(1e-3 * step, 0.0, 1.1 - 2e-3 * step);
       }
-      const long long before = g_allocations.load();
+      const long long before = testing::g_allocations.load();
       s.hash.detect(bodies, filter, s.colliding);
       s.solver.compute(bodies, s.colliding, s.contacts);
       if (pass == 1) {
-        EXPECT_EQ(g_allocations.load(), before) << step;
+        EXPECT_EQ(testing::g_allocations.load(), before) << step;
       }
     }
   }

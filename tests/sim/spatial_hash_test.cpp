@@ -301,17 +301,7 @@ TEST(SpatialHash, FilteredAndInactiveBodiesAreNotHashed) {
 }  // namespace pliant
 
 // Counts heap allocations in this test executable (replaces the global operator new).
-namespace {
-std::atomic<long long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "support/allocation_counter.h"
 
 namespace pliant {
 namespace {
@@ -337,9 +327,9 @@ TEST(SpatialHash, NoAllocationPerStepAfterWarmUp) {
   for (int step = 0; step < 5; ++step) {
     for (auto& p : x[0]) p += Vec3(1e-3, 0.0, 0.0);
     found.reserve(2 * warm);
-    const long long before = g_allocations.load();
+    const long long before = testing::g_allocations.load();
     hash.detect(bodies, filter, found);
-    EXPECT_EQ(g_allocations.load(), before) << step;
+    EXPECT_EQ(testing::g_allocations.load(), before) << step;
   }
 }
 
