@@ -11,6 +11,7 @@
 #include "sim/math_types.h"
 #include "sim/mesh/tet_mesh.h"
 #include "sim/model/deformation_model.h"
+#include "sim/sleep/sleep_settings.h"
 
 namespace pliant {
 
@@ -58,9 +59,16 @@ class Body {
   unsigned collision_group = 1u;
   unsigned collision_mask = ~0u;
 
+  SleepState sleep;            ///< deformable bodies: asleep or not (sim/sleep/sleep_settings.h)
+  bool moved_this_step = true; ///< kinematic bodies: pose changed in the last integrate stage
+
   bool is_kinematic() const { return motion == BodyMotion::kinematic; }
-  /// True if vertex v cannot be moved by contact (kinematic body or fixed vertex).
-  bool is_immovable(int v) const { return is_kinematic() || fixed[static_cast<size_t>(v)] != 0; }
+  /// True while the body sleeps (not integrated; immovable in contact).
+  bool is_sleeping() const { return sleep.sleeping; }
+  /// True if vertex v cannot be moved by contact (kinematic or sleeping body, or fixed vertex).
+  bool is_immovable(int v) const {
+    return is_kinematic() || sleep.sleeping || fixed[static_cast<size_t>(v)] != 0;
+  }
   int vertex_count() const { return static_cast<int>(positions.size()); }
   double total_mass() const;
 };

@@ -79,6 +79,10 @@ struct StepReport {
   std::vector<KinematicReaction> reactions;
   std::vector<PairContactForce> pair_forces;
 
+  // sleeping (sim/sleep/sleep_settings.h)
+  int sleeping_bodies = 0;  ///< deformable bodies asleep after the step
+  int bodies_woken = 0;     ///< sleeping bodies woken by contact in this step
+
   // report
   std::vector<EnergyReport> body_energy;  ///< per body slot
   EnergyReport energy;                    ///< sum over bodies

@@ -6,6 +6,7 @@
 #include "sim/contact/contact_surface_response.h"
 #include "sim/contact/penalty_response.h"
 #include "sim/input_error.h"
+#include "sim/sleep/sleeping.h"
 
 namespace pliant {
 
@@ -169,6 +170,8 @@ void World::disable_collision(BodyId a, BodyId b) {
 
 void World::set_kinematic_pose(BodyId id, const Pose& pose) { body(id).target_pose = pose; }
 
+void World::wake(BodyId id) { wake_body(body(id)); }
+
 void World::rebuild_body_view() {
   body_view_.clear();
   for (auto& slot : slots_) body_view_.push_back(slot.get());
@@ -196,6 +199,11 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
     saved_poses_[i] = slots_[i]->pose;
   }
 
+  if (!settings_.sleep.enabled) {
+    for (Body* b : body_view_) {
+      if (b != nullptr && b->is_sleeping()) wake_body(*b);
+    }
+  }
   { StageScope s(profiler, StepStage::integrate); integrate(dt); }
   { StageScope s(profiler, StepStage::detect); detect(); }
   { StageScope s(profiler, StepStage::depth); compute_penetration_depth(); }
@@ -214,6 +222,10 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
     if (report_.fault_message.empty()) report_.fault_message = "non-finite state after step; state restored";
     return report_;
   }
+  if (settings_.sleep.enabled) {
+    report_.sleeping_bodies =
+        update_sleep(body_view_, dt, settings_.sleep, report_.body_energy, settings_.compute_energy);
+  }
   time_ += dt;
   report_.time = time_;
   ++step_count_;
@@ -223,8 +235,15 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
 void World::integrate(double dt) {
   for (Body* body : body_view_) {
     if (body == nullptr) continue;
+    if (body->is_sleeping()) continue;
     if (body->is_kinematic()) {
       // Prescribed motion: jump to the target pose; velocity is the finite difference over dt.
+      // A body that kept its pose this step and the last is already there at rest: skip it.
+      const bool moves = body->target_pose.translation != body->pose.translation ||
+                         body->target_pose.rotation.coeffs() != body->pose.rotation.coeffs();
+      const bool was_moving = body->moved_this_step;
+      body->moved_this_step = moves;
+      if (!moves && !was_moving) continue;
       const auto& rest = body->mesh->rest_positions();
       for (size_t i = 0; i < rest.size(); ++i) {
         const Vec3 next = body->target_pose.apply(rest[i]);
@@ -246,6 +265,21 @@ void World::integrate(double dt) {
   }
 }
 
+void World::build_collision_filter() {
+  filter_ = CollisionFilter::from_bodies(collision_bodies_);
+  // Two kinematic bodies never need contact; neither do excluded pairs.
+  for (size_t a = 0; a < body_view_.size(); ++a) {
+    for (size_t b = a + 1; b < body_view_.size(); ++b) {
+      if (body_view_[a] && body_view_[b] && body_view_[a]->is_kinematic() && body_view_[b]->is_kinematic()) {
+        filter_.set(static_cast<int>(a), static_cast<int>(b), false);
+      }
+    }
+  }
+  for (const auto& [a, b] : disabled_pairs_) filter_.set(a, b, false);
+  // Nor do two bodies that do not move (sleeping, or kinematic and still).
+  if (settings_.sleep.enabled) filter_resting_pairs(body_view_, filter_);
+}
+
 void World::detect() {
   collision_bodies_.clear();
   for (Body* body : body_view_) {
@@ -261,18 +295,18 @@ void World::detect() {
     }
     collision_bodies_.push_back(cb);
   }
-  filter_ = CollisionFilter::from_bodies(collision_bodies_);
-  // Two kinematic bodies never need contact; neither do excluded pairs.
-  for (size_t a = 0; a < body_view_.size(); ++a) {
-    for (size_t b = a + 1; b < body_view_.size(); ++b) {
-      if (body_view_[a] && body_view_[b] && body_view_[a]->is_kinematic() && body_view_[b]->is_kinematic()) {
-        filter_.set(static_cast<int>(a), static_cast<int>(b), false);
-      }
-    }
-  }
-  for (const auto& [a, b] : disabled_pairs_) filter_.set(a, b, false);
+  build_collision_filter();
   colliding_.clear();
   spatial_hash_.detect(collision_bodies_, filter_, colliding_);
+  // A moving body touched a sleeping one: wake it and detect again with its pairs back in.
+  if (settings_.sleep.enabled) {
+    report_.bodies_woken = wake_touched_bodies(body_view_, colliding_, settings_.sleep, sleep_speed_scratch_);
+    if (report_.bodies_woken > 0) {
+      build_collision_filter();
+      colliding_.clear();
+      spatial_hash_.detect(collision_bodies_, filter_, colliding_);
+    }
+  }
   report_.colliding_vertices = static_cast<int>(colliding_.size());
 }
 
@@ -341,7 +375,11 @@ void World::report() {
       e.kinetic += 0.5 * body->masses[v] * body->velocities[v].squaredNorm();
       e.gravitational -= body->masses[v] * settings_.gravity.dot(body->positions[v] - initial_positions_[i][v]);
     }
-    if (settings_.compute_energy) e.elastic = body->model->elastic_energy(body->positions);
+    if (body->is_sleeping() && body->sleep.has_elastic_energy) {
+      e.elastic = body->sleep.elastic_energy;  // positions unchanged since it fell asleep
+    } else if (settings_.compute_energy) {
+      e.elastic = body->model->elastic_energy(body->positions);
+    }
     report_.energy.kinetic += e.kinetic;
     report_.energy.elastic += e.elastic;
     report_.energy.gravitational += e.gravitational;

@@ -13,6 +13,7 @@
 #include "sim/collision/spatial_hash.h"
 #include "sim/contact/contact_response.h"
 #include "sim/contact/contact_settings.h"
+#include "sim/sleep/sleep_settings.h"
 #include "sim/step_report.h"
 
 namespace pliant {
@@ -28,6 +29,7 @@ struct WorldSettings {
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
   ContactSettings contact;
   bool compute_energy = true;  ///< elastic energy costs one force evaluation per body per step
+  SleepSettings sleep;         ///< bodies at rest sleep (off unless enabled)
 };
 
 class World {
@@ -53,6 +55,9 @@ class World {
   /// Excludes a pair from collision (e.g. a fixture and the tissue clamped to it).
   void disable_collision(BodyId a, BodyId b);
 
+  /// Wakes a sleeping body now (no effect on an awake one).
+  void wake(BodyId id);
+
   /// Sets where a kinematic body will be after the next step (its velocity follows from dt).
   void set_kinematic_pose(BodyId id, const Pose& pose);
 
@@ -77,6 +82,7 @@ class World {
   void report();
 
   void rebuild_body_view();
+  void build_collision_filter();
   bool state_is_finite() const;
 
   WorldSettings settings_;
@@ -96,6 +102,7 @@ class World {
   CollisionFilter filter_;
   std::vector<VertexInTet> colliding_;
   std::vector<VertexContact> contacts_;
+  std::vector<double> sleep_speed_scratch_;
   std::vector<std::vector<Vec3>> saved_positions_, saved_velocities_;
   std::vector<Pose> saved_poses_;
   StepReport report_;

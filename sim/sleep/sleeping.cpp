@@ -1,0 +1,130 @@
+#include "sim/sleep/sleeping.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pliant {
+
+namespace {
+
+// A body that cannot set another in motion this step.
+bool is_resting(const Body* body) {
+  if (body == nullptr) return true;
+  return body->is_kinematic() ? !body->moved_this_step : body->is_sleeping();
+}
+
+bool has_applied_force(const Body& body) {
+  return std::any_of(body.applied_forces.begin(), body.applied_forces.end(),
+                     [](const Vec3& f) { return f.squaredNorm() > 0.0; });
+}
+
+struct Box {
+  Vec3 lo = Vec3::Constant(INFINITY);
+  Vec3 hi = Vec3::Constant(-INFINITY);
+  bool overlaps(const Box& o, double margin) const {
+    return (lo.array() <= o.hi.array() + margin).all() && (o.lo.array() <= hi.array() + margin).all();
+  }
+};
+
+Box bounds(const Body& body) {
+  Box b;
+  for (const Vec3& x : body.positions) {
+    b.lo = b.lo.cwiseMin(x);
+    b.hi = b.hi.cwiseMax(x);
+  }
+  return b;
+}
+
+}  // namespace
+
+double max_vertex_speed(const Body& body) {
+  double v2 = 0.0;
+  for (const Vec3& v : body.velocities) v2 = std::max(v2, v.squaredNorm());
+  return std::sqrt(v2);
+}
+
+void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter) {
+  const int n = static_cast<int>(bodies.size());
+  for (int a = 0; a < n; ++a) {
+    if (!is_resting(bodies[static_cast<size_t>(a)])) continue;
+    for (int b = a; b < n; ++b) {
+      if (is_resting(bodies[static_cast<size_t>(b)])) filter.set(a, b, false);
+    }
+  }
+}
+
+void wake_body(Body& body) {
+  body.sleep.sleeping = false;
+  body.sleep.rest_time = 0.0;
+  body.sleep.has_elastic_energy = false;
+}
+
+int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
+                        const SleepSettings& settings, std::vector<double>& speed_scratch) {
+  // Speed of each awake deformable body, computed once when first needed (-1 = not yet).
+  speed_scratch.assign(bodies.size(), -1.0);
+  auto moves = [&](int index) {
+    const Body* b = bodies[static_cast<size_t>(index)];
+    if (b == nullptr || b->is_sleeping()) return false;
+    if (b->is_kinematic()) return b->moved_this_step;
+    double& s = speed_scratch[static_cast<size_t>(index)];
+    if (s < 0.0) s = max_vertex_speed(*b);
+    return s >= settings.speed;
+  };
+  std::vector<int> woken;
+  auto wake = [&](int index) {
+    Body* b = bodies[static_cast<size_t>(index)];
+    if (b == nullptr || !b->is_sleeping()) return;
+    wake_body(*b);
+    woken.push_back(index);
+  };
+  for (const VertexInTet& c : colliding) {
+    const Body* a = bodies[static_cast<size_t>(c.body)];
+    const Body* p = bodies[static_cast<size_t>(c.penetrated_body)];
+    if (a->is_sleeping() && moves(c.penetrated_body)) wake(c.body);
+    if (p->is_sleeping() && moves(c.body)) wake(c.penetrated_body);
+  }
+  // Spread to sleeping neighbours (a body lying on a woken one must not hover).
+  for (size_t k = 0; k < woken.size(); ++k) {
+    const Box box = bounds(*bodies[static_cast<size_t>(woken[k])]);
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      const Body* b = bodies[i];
+      if (b == nullptr || !b->is_sleeping()) continue;
+      if (box.overlaps(bounds(*b), settings.wake_margin)) wake(static_cast<int>(i));
+    }
+  }
+  return static_cast<int>(woken.size());
+}
+
+int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& settings,
+                 std::span<const EnergyReport> body_energy, bool has_energy) {
+  int asleep = 0;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    Body* body = bodies[i];
+    if (body == nullptr || body->is_kinematic()) continue;
+    if (has_applied_force(*body)) {
+      if (body->is_sleeping()) wake_body(*body);
+      body->sleep.rest_time = 0.0;
+      continue;
+    }
+    if (body->is_sleeping()) {
+      ++asleep;
+      continue;
+    }
+    if (max_vertex_speed(*body) < settings.speed) {
+      body->sleep.rest_time += dt;
+    } else {
+      body->sleep.rest_time = 0.0;
+    }
+    if (body->sleep.rest_time >= settings.time) {
+      body->sleep.sleeping = true;
+      for (Vec3& v : body->velocities) v.setZero();
+      body->sleep.has_elastic_energy = has_energy;
+      body->sleep.elastic_energy = has_energy && i < body_energy.size() ? body_energy[i].elastic : 0.0;
+      ++asleep;
+    }
+  }
+  return asleep;
+}
+
+}  // namespace pliant

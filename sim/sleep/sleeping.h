@@ -1,0 +1,40 @@
+// The sleeping-body rules of World::step (criterion and wake rules: sim/sleep/sleep_settings.h).
+// Each function is one place in the step: pair filtering before detection, waking after it,
+// falling asleep after the report.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "sim/body.h"
+#include "sim/collision/contact_types.h"
+#include "sim/sleep/sleep_settings.h"
+#include "sim/step_report.h"
+
+namespace pliant {
+
+/// Disallows pairs (and self pairs) between bodies that do not move this step: sleeping
+/// deformable bodies and kinematic bodies that kept their pose. Indices are body slots.
+void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter);
+
+/// Wakes every sleeping body that a moving body touches in `colliding` (a kinematic body that
+/// moved this step, or an awake deformable body with a vertex faster than settings.speed), and
+/// then, transitively, sleeping bodies whose bounding boxes (grown by settings.wake_margin) overlap
+/// a woken body. Returns the number of bodies woken. `speed_scratch` is reused between steps.
+int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
+                        const SleepSettings& settings, std::vector<double>& speed_scratch);
+
+/// Wakes one body now (velocities stay zero; it is integrated from the next step on).
+void wake_body(Body& body);
+
+/// After a step of dt (s): advances each awake deformable body's rest time and puts bodies to
+/// sleep (velocities set to zero) once it reaches settings.time. `body_energy` is this step's
+/// report per slot; its elastic energy is kept for the reports while the body sleeps
+/// (`has_energy`: whether it was computed). Returns the number of bodies asleep after the update.
+int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& settings,
+                 std::span<const EnergyReport> body_energy, bool has_energy);
+
+/// Largest vertex speed of a body (m/s).
+double max_vertex_speed(const Body& body);
+
+}  // namespace pliant

@@ -1,0 +1,244 @@
+// Sleeping bodies (sim/sleep/sleep_settings.h): a block dropped on a fixed floor falls asleep
+// once it has settled and its state then stops changing exactly; it wakes in the step a moving
+// body or an instrument first touches it; a body in free fall never sleeps (checked against the
+// ballistic closed form); bodies that are awake are not affected (bit-identical to a run with
+// sleeping off), and sleeping off never puts a body to sleep.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "sim/mesh/box_mesh.h"
+#include "sim/world.h"
+#include <cstring>
+
+namespace pliant {
+namespace {
+
+constexpr double kDt = 1e-3;  // s
+
+Material block_material() {
+  Material m;
+  m.young_modulus = 5e4;  // Pa
+  m.poisson_ratio = 0.3;
+  m.density = 1000.0;     // kg/m^3
+  m.mass_damping = 2.0;   // 1/s: settles within a second
+  m.stiffness_damping = 0.0;
+  m.friction = 0.4;
+  return m;
+}
+
+WorldSettings sleep_on() {
+  WorldSettings s;
+  s.sleep.enabled = true;
+  s.sleep.speed = 0.005;  // m/s
+  s.sleep.time = 0.2;     // s
+  return s;
+}
+
+// A kinematic floor slab with its top face at z = 0 and a 50 mm block resting `gap` above it.
+struct FloorAndBlock {
+  World world;
+  BodyId floor, block;
+  explicit FloorAndBlock(WorldSettings settings, double gap = 0.002, Vec3 block_xy = Vec3::Zero())
+      : world(settings) {
+    BodyDef f{.name = "floor", .mesh = make_box_mesh({Vec3(0.6, 0.6, 0.04), 1, 1, 1}),
+              .material = block_material(), .motion = BodyMotion::kinematic};
+    f.pose.translation = Vec3(0, 0, -0.02);
+    floor = world.add_body(f);
+    block = add_block(world, "block", block_xy + Vec3(0, 0, 0.025 + gap));
+  }
+  static BodyId add_block(World& w, const std::string& name, const Vec3& centre) {
+    BodyDef b{.name = name, .mesh = make_box_mesh({Vec3(0.05, 0.05, 0.05), 2, 2, 2}), .material = block_material()};
+    b.pose.translation = centre;
+    return w.add_body(b);
+  }
+};
+
+// Steps until the block sleeps (or max_steps); returns the step count, or nullopt.
+std::optional<int> step_until_asleep(World& world, BodyId id, int max_steps) {
+  for (int i = 1; i <= max_steps; ++i) {
+    const StepReport& r = world.step(kDt);
+    EXPECT_TRUE(r.all_finite);
+    if (world.body(id).is_sleeping()) return i;
+  }
+  return std::nullopt;
+}
+
+bool bit_identical(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (std::memcmp(&a[i][k], &b[i][k], sizeof(double)) != 0) return false;
+    }
+  }
+  return true;
+}
+
+double min_z(const Body& b) {
+  double z = INFINITY;
+  for (const Vec3& x : b.positions) z = std::min(z, x.z());
+  return z;
+}
+
+TEST(Sleeping, BlockOnFloorFallsAsleepAndItsStateThenStopsChangingExactly) {
+  FloorAndBlock s(sleep_on());
+  std::vector<Vec3> before_sleep;
+  const auto asleep = step_until_asleep(s.world, s.block, 3000);
+  ASSERT_TRUE(asleep.has_value()) << "the block never fell asleep within 3 s";
+  // It slept only after the landing (free fall over 2 mm takes 20 ms) and after `time` at rest.
+  EXPECT_GT(*asleep * kDt, 0.02 + 0.2);
+  const Body& block = s.world.body(s.block);
+  // Resting on the floor: the lowest vertex within a millimetre of z = 0, no velocity.
+  EXPECT_NEAR(min_z(block), 0.0, 1e-3);
+  for (const Vec3& v : block.velocities) EXPECT_EQ(v.squaredNorm(), 0.0);
+  const std::vector<Vec3> x = block.positions, v = block.velocities;
+  const double elastic = s.world.last_report().body_energy[s.block.index].elastic;
+  for (int i = 0; i < 300; ++i) {
+    const StepReport& r = s.world.step(kDt);
+    ASSERT_EQ(r.sleeping_bodies, 1);
+    EXPECT_EQ(r.colliding_vertices, 0);  // the still floor and the sleeping block are not paired
+    EXPECT_EQ(r.body_energy[s.block.index].kinetic, 0.0);
+    EXPECT_EQ(r.body_energy[s.block.index].elastic, elastic);
+  }
+  EXPECT_TRUE(s.world.body(s.block).is_sleeping());
+  EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, x));
+  EXPECT_TRUE(bit_identical(s.world.body(s.block).velocities, v));
+}
+
+TEST(Sleeping, WakesInTheStepAnotherBodyLandsOnIt) {
+  FloorAndBlock s(sleep_on());
+  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
+  const std::vector<Vec3> x = s.world.body(s.block).positions;
+  // A second block 30 mm above the first one's top (z = 0.05): it lands after ~78 ms.
+  const BodyId top = FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.03 + 0.025));
+  int woken_at = -1;
+  for (int i = 1; i <= 200 && woken_at < 0; ++i) {
+    const StepReport& r = s.world.step(kDt);
+    ASSERT_TRUE(r.all_finite);
+    if (!s.world.body(s.block).is_sleeping()) {
+      woken_at = i;
+      // Woken by the contact of this very step, not later.
+      EXPECT_EQ(r.bodies_woken, 1);
+      EXPECT_GT(r.colliding_vertices, 0);
+    } else {
+      EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, x)) << "sleeping block moved at step " << i;
+    }
+  }
+  ASSERT_GT(woken_at, 0) << "the lower block never woke";
+  // Closed form: the top block falls 30 mm in sqrt(2 h / g) = 78 ms before it touches.
+  EXPECT_NEAR(woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
+  EXPECT_FALSE(s.world.body(top).is_sleeping());
+  // Awake, the lower block responds to the load: it moves again.
+  for (int i = 0; i < 20; ++i) s.world.step(kDt);
+  EXPECT_FALSE(bit_identical(s.world.body(s.block).positions, x));
+}
+
+TEST(Sleeping, WakesWhenAnInstrumentTouchesIt) {
+  FloorAndBlock s(sleep_on());
+  // A kinematic probe 10 x 10 x 10 mm hovering 5 mm above the block's top (z = 0.05).
+  BodyDef p{.name = "probe", .mesh = make_box_mesh({Vec3(0.01, 0.01, 0.01), 1, 1, 1}),
+            .material = block_material(), .motion = BodyMotion::kinematic};
+  p.pose.translation = Vec3(0.004, 0.003, 0.05 + 0.005 + 0.005);
+  const BodyId probe = s.world.add_body(p);
+  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
+  // The still probe does not wake it.
+  for (int i = 0; i < 50; ++i) ASSERT_TRUE(s.world.step(kDt).all_finite);
+  ASSERT_TRUE(s.world.body(s.block).is_sleeping());
+  // Move the probe down at 0.1 m/s. It first overlaps the block when its bottom face passes the
+  // highest block vertex under its footprint (the block's top-face centre, about 5 mm below it:
+  // the block sags a little under its weight; the face around it is lower).
+  double top_z = -INFINITY;
+  for (const Vec3& x : s.world.body(s.block).positions) {
+    if (std::abs(x.x() - 0.004) < 0.005 && std::abs(x.y() - 0.003) < 0.005) top_z = std::max(top_z, x.z());
+  }
+  const double gap = (p.pose.translation.z() - 0.005) - top_z;
+  const int expected = static_cast<int>(std::ceil(gap / (0.1 * kDt)));
+  Pose pose = p.pose;
+  int woken_at = -1;
+  for (int i = 1; i <= 100 && woken_at < 0; ++i) {
+    pose.translation.z() -= 0.1 * kDt;
+    s.world.set_kinematic_pose(probe, pose);
+    const StepReport& r = s.world.step(kDt);
+    ASSERT_TRUE(r.all_finite);
+    if (!s.world.body(s.block).is_sleeping()) {
+      woken_at = i;
+      EXPECT_GT(r.colliding_vertices, 0);
+      // The instrument feels the block in the step it wakes it.
+      bool felt = false;
+      for (const auto& reaction : r.reactions) felt |= reaction.body == static_cast<int>(probe.index) && reaction.force.norm() > 0.0;
+      EXPECT_TRUE(felt);
+    }
+  }
+  ASSERT_GT(woken_at, 0);
+  EXPECT_NEAR(woken_at, expected, 1) << "gap " << gap << " m";
+}
+
+TEST(Sleeping, BodyInFreeFallNeverSleepsEvenAtTheTopOfItsFlight) {
+  WorldSettings settings = sleep_on();
+  World world(settings);
+  Material m = block_material();
+  m.mass_damping = 0.0;
+  BodyDef b{.name = "ball", .mesh = make_box_mesh({Vec3(0.05, 0.05, 0.05), 2, 2, 2}), .material = m,
+            .initial_velocity = Vec3(0, 0, 1.0)};
+  const BodyId id = world.add_body(b);
+  const double v0 = 1.0, g = 9.81;
+  for (int i = 1; i <= 300; ++i) {  // the apex is at v0 / g = 0.10 s
+    const StepReport& r = world.step(kDt);
+    ASSERT_TRUE(r.all_finite);
+    ASSERT_EQ(r.sleeping_bodies, 0) << "at t = " << i * kDt;
+    ASSERT_FALSE(world.body(id).is_sleeping());
+  }
+  // Ballistic closed form for the centre of mass (backward Euler: O(dt) error in z).
+  const Body& body = world.body(id);
+  Vec3 com = Vec3::Zero();
+  for (size_t v = 0; v < body.positions.size(); ++v) com += body.masses[v] * body.positions[v];
+  com /= body.total_mass();
+  const double t = 0.3;
+  EXPECT_NEAR(com.z(), v0 * t - 0.5 * g * t * t, 0.5 * g * t * kDt + 1e-6);
+}
+
+TEST(Sleeping, AwakeBodiesAreBitIdenticalToARunWithSleepingOff) {
+  // Block A settles and sleeps at the origin; block B, 0.2 m away, is dropped from 0.1 m after
+  // 1 s and bounces while A sleeps. B must not notice that A sleeps.
+  WorldSettings off = sleep_on();
+  off.sleep.enabled = false;
+  FloorAndBlock on_run(sleep_on()), off_run(off);
+  const BodyId b_on = FloorAndBlock::add_block(on_run.world, "b", Vec3(0.2, 0, 0.5));
+  const BodyId b_off = FloorAndBlock::add_block(off_run.world, "b", Vec3(0.2, 0, 0.5));
+  bool a_slept = false;
+  for (int i = 0; i < 1500; ++i) {
+    const StepReport& r_on = on_run.world.step(kDt);
+    const StepReport& r_off = off_run.world.step(kDt);
+    ASSERT_TRUE(r_on.all_finite && r_off.all_finite);
+    ASSERT_EQ(r_off.sleeping_bodies, 0);
+    ASSERT_FALSE(off_run.world.body(off_run.block).is_sleeping());
+    a_slept |= on_run.world.body(on_run.block).is_sleeping();
+    ASSERT_TRUE(bit_identical(on_run.world.body(b_on).positions, off_run.world.body(b_off).positions)) << i;
+    ASSERT_TRUE(bit_identical(on_run.world.body(b_on).velocities, off_run.world.body(b_off).velocities)) << i;
+    // Until A falls asleep, A is bit-identical too.
+    if (!a_slept) {
+      ASSERT_TRUE(bit_identical(on_run.world.body(on_run.block).positions,
+                                off_run.world.body(off_run.block).positions)) << i;
+    }
+  }
+  EXPECT_TRUE(a_slept);
+  // B landed (0.5 m fall: 0.32 s) and came to rest on the floor too, and then slept.
+  EXPECT_NEAR(min_z(on_run.world.body(b_on)), 0.0, 1e-3);
+}
+
+TEST(Sleeping, TurningSleepingOffWakesEveryBody) {
+  FloorAndBlock s(sleep_on());
+  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
+  s.world.settings().sleep.enabled = false;
+  const StepReport& r = s.world.step(kDt);
+  EXPECT_EQ(r.sleeping_bodies, 0);
+  EXPECT_FALSE(s.world.body(s.block).is_sleeping());
+  // Awake on the floor again: gravity pulls it back into contact with the floor.
+  for (int i = 0; i < 5; ++i) s.world.step(kDt);
+  EXPECT_GT(s.world.last_report().colliding_vertices, 0);
+}
+
+}  // namespace
+}  // namespace pliant
