@@ -13,7 +13,9 @@
 #include <sstream>
 
 #include "apps/experiment_command.h"
+#include "apps/run_command.h"
 #include "interaction/clock.h"
+#include "interaction/scene/scene_haptics.h"
 #include "interaction/scene/scene_runner.h"
 #include "interaction/step_time_stats.h"
 #include "sim/input_error.h"
@@ -153,6 +155,7 @@ std::vector<std::filesystem::path> shipped_scenes() {
 }  // namespace
 
 int run_bench(const BenchOptions& options, std::ostream& log) {
+  if (options.haptic) return run_haptic_bench(options, log);
   if (options.steps < 1) throw InputError(InputErrorKind::bad_value, "--steps", "must be at least 1");
   std::vector<std::filesystem::path> files;
   for (const std::string& s : options.scenes) files.push_back(resolve_scene(s));
@@ -218,6 +221,108 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
       csv << '\n';
     }
     write_file_atomically(options.csv, csv.str());
+  }
+  return failed ? 1 : 0;
+}
+
+namespace {
+
+// One scene of the haptic benchmark.
+nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& options, std::ostream& log) {
+  SceneRunner runner(scene);
+  long vertices = 0, tets = 0;
+  for (const Body* body : runner.world().bodies()) {
+    if (body == nullptr || body->motion == BodyMotion::kinematic) continue;
+    vertices += body->mesh->vertex_count();
+    tets += body->mesh->tet_count();
+  }
+  SteadyClock clock;
+  ClockStageProfiler profiler(clock);
+  const double budget = scene.loop.budget_or_period();
+  for (long i = 0; i < options.warm_up_steps; ++i) {
+    if (!runner.tick(&profiler)) break;
+  }
+  SceneHaptics haptics(clock, runner, HapticLimits{}, options.seconds, options.realtime_priority);
+  StepTimeStats step;
+  long over_budget = 0;
+  const double t_start = clock.now();
+  haptics.start();
+  while (runner.fault().empty() && clock.now() - t_start < options.seconds) {
+    if (!runner.tick(&profiler)) break;
+    haptics.refresh(runner, clock.now());
+    step.add(profiler.total());
+    if (profiler.total() > budget) ++over_budget;
+  }
+  haptics.stop();
+  const HapticTiming timing = haptics.timing();
+  nlohmann::json j = {{"scene", scene.name},
+                      {"tissue_vertices", vertices},
+                      {"tissue_tets", tets},
+                      {"seconds", clock.now() - t_start},
+                      {"physics_steps", step.count()},
+                      {"simulated_time", runner.time()},
+                      {"physics_step_ms", percentiles_ms_json(step)},
+                      {"physics_budget_ms", budget * 1e3},
+                      {"physics_steps_over_budget", over_budget},
+                      {"haptics", haptic_summary_json(timing, haptics.stats())},
+                      {"fault", runner.fault().empty() ? nlohmann::json(nullptr) : nlohmann::json(runner.fault())}};
+  const auto ms = [](const Percentiles& p, double q) { return (q < 0.9 ? p.p50 : (q < 1.0 ? p.p99 : p.max)) * 1e3; };
+  log << std::left << std::setw(14) << scene.name << std::right << std::fixed << std::setprecision(3) << std::setw(7)
+      << vertices << std::setw(8) << step.count() << std::setw(9) << (step.count() ? step.percentile(0.5) * 1e3 : 0.0)
+      << std::setw(9) << (step.count() ? step.percentile(0.99) * 1e3 : 0.0) << std::setw(8) << over_budget
+      << std::setw(8) << haptics.stats().ticks << std::setw(9) << ms(timing.period_jitter, 0.5) << std::setw(9)
+      << ms(timing.period_jitter, 0.99) << std::setw(9) << ms(timing.period_jitter, 1.0) << std::setw(9)
+      << ms(timing.lateness, 0.99) << std::setw(7) << timing.deadline_misses << std::setw(4)
+      << (timing.realtime_priority ? "rt" : "-") << (runner.fault().empty() ? "" : "  FAILED: " + runner.fault())
+      << "\n"
+      << std::flush;
+  log.unsetf(std::ios::fixed);
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json percentiles_ms_json(const StepTimeStats& stats) {
+  if (stats.count() == 0) return nullptr;
+  const Percentiles p = stats.summary();
+  return {{"p50", p.p50 * 1e3}, {"p99", p.p99 * 1e3}, {"max", p.max * 1e3}};
+}
+
+int run_haptic_bench(const BenchOptions& options, std::ostream& log) {
+  if (!(options.seconds > 0.0)) throw InputError(InputErrorKind::bad_value, "--seconds", "must be positive");
+  std::vector<std::filesystem::path> files;
+  for (const std::string& s : options.scenes) files.push_back(resolve_scene(s));
+  if (files.empty()) {
+    const std::filesystem::path folder = find_scene_folder();
+    if (folder.empty()) throw InputError(InputErrorKind::io, "assets/scenes", "shipped scene folder not found");
+    files = {folder / "probe.json", folder / "probe_5k.json"};
+  }
+  log << std::left << std::setw(14) << "scene" << std::right << std::setw(7) << "verts" << std::setw(8) << "steps"
+      << std::setw(9) << "step50" << std::setw(9) << "step99" << std::setw(8) << ">budget" << std::setw(8)
+      << "ticks" << std::setw(9) << "jit50" << std::setw(9) << "jit99" << std::setw(9) << "jitmax" << std::setw(9)
+      << "late99" << std::setw(7) << "misses" << std::setw(4) << "pri"
+      << "   (ms; verts: tissue; jit: |tick period - 1/rate|, late: start - slot)\n"
+      << std::flush;
+  nlohmann::json rows = nlohmann::json::array();
+  bool failed = false;
+  for (const auto& file : files) {
+    Scene scene = load_scene(file.string());
+    if (options.contact) scene.world.contact.method = contact_method_from_string(*options.contact);
+    if (scene.instruments.empty()) {
+      log << scene.name << ": no instruments, skipped\n";
+      continue;
+    }
+    rows.push_back(haptic_bench_scene(scene, options, log));
+    failed = failed || !rows.back()["fault"].is_null();
+  }
+  if (!options.json.empty()) {
+    const nlohmann::json doc = {{"benchmark", "haptic"},
+                                {"seconds", options.seconds},
+                                {"warm_up_steps", options.warm_up_steps},
+                                {"clock", "steady_clock"},
+                                {"percentiles", "nearest rank"},
+                                {"rows", rows}};
+    write_file_atomically(options.json, doc.dump(2) + "\n");
   }
   return failed ? 1 : 0;
 }

@@ -30,10 +30,15 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--no-frames", run.no_frames, "Do not render frames");
   run_cmd->add_flag("--vtu", run.vtu, "Write .vtu frames and a .pvd series");
   run_cmd->add_flag("--realtime", run.realtime, "Run on the wall clock at the scene's loop rate");
+  bool no_haptics = false, no_rt_priority = false;
+  run_cmd->add_flag("--no-haptics", no_haptics, "With --realtime: no haptic thread");
+  run_cmd->add_flag("--no-rt-priority", no_rt_priority, "With --realtime: do not ask SCHED_FIFO for the haptic thread");
   run_cmd->add_flag("--quiet", run.quiet, "Print nothing on success");
   run_cmd->callback([&] {
     if (!contact.empty()) run.contact = contact;
     if (iterations >= 0) run.binary_search_iterations = iterations;
+    run.haptics = !no_haptics;
+    run.realtime_priority = !no_rt_priority;
     exit_code = pliant::run_scene(run, std::cout);
   });
 
@@ -79,9 +84,18 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--contact", bench_contact, "Contact method for every scene")
       ->check(CLI::IsMember({"surface", "penalty", "none"}));
   bench_cmd->add_flag("--no-variants", bench_no_variants, "No friction-off rows");
+  bool bench_no_rt = false;
+  bench_cmd->add_flag("--haptic", bench.haptic,
+                      "Haptic benchmark: physics back to back with the 1 kHz haptic thread beside it "
+                      "(default scenes: probe, probe_5k)");
+  bench_cmd->add_option("--seconds", bench.seconds, "Haptic benchmark: wall-clock seconds per scene")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  bench_cmd->add_flag("--no-rt-priority", bench_no_rt, "Haptic benchmark: do not ask SCHED_FIFO for the haptic thread");
   bench_cmd->callback([&] {
     if (!bench_contact.empty()) bench.contact = bench_contact;
     bench.friction_variants = !bench_no_variants;
+    bench.realtime_priority = !bench_no_rt;
     exit_code = pliant::run_bench(bench, std::cout);
   });
 

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "interaction/accuracy_governor.h"
 #include "interaction/clock.h"
 #include "interaction/fixed_rate_loop.h"
+#include "interaction/scene/scene_haptics.h"
 #include "interaction/scene/scene_runner.h"
 #include "interaction/step_time_stats.h"
 #include "sim/input_error.h"
@@ -54,7 +56,26 @@ nlohmann::json percentiles_ms(const StepTimeStats& stats) {
 
 nlohmann::json vec_json(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
+nlohmann::json ms_json(const Percentiles& p) {
+  if (p.count == 0) return nullptr;
+  return {{"p50", p.p50 * 1e3}, {"p99", p.p99 * 1e3}, {"max", p.max * 1e3}};
+}
+
 }  // namespace
+
+nlohmann::json haptic_summary_json(const HapticTiming& timing, const HapticStats& stats) {
+  return {{"rate_hz", timing.period > 0.0 ? 1.0 / timing.period : 0.0},
+          {"ticks", stats.ticks},
+          {"period_jitter_ms", ms_json(timing.period_jitter)},
+          {"lateness_ms", ms_json(timing.lateness)},
+          {"tick_duration_ms", ms_json(timing.tick_duration)},
+          {"late_ticks", timing.late_ticks},
+          {"skipped_ticks", timing.skipped_ticks},
+          {"deadline_misses", timing.deadline_misses},
+          {"faults", stats.faults},
+          {"limited_ticks", stats.limited},
+          {"realtime_priority", timing.realtime_priority}};
+}
 
 int run_scene(const RunOptions& options, std::ostream& log) {
   Scene scene = load_scene(options.scene);
@@ -137,6 +158,7 @@ int run_scene(const RunOptions& options, std::ostream& log) {
 
   long deadline_misses = 0;
   nlohmann::json loop_json = nullptr;
+  nlohmann::json haptic_json = nullptr;
   if (options.realtime) {
     LoopSettings loop_settings = scene.loop;
     FixedRateLoop loop(clock, loop_settings);
@@ -144,7 +166,27 @@ int run_scene(const RunOptions& options, std::ostream& log) {
     if (!loop_settings.deterministic) {
       loop.set_governor(&governor, [&](const AccuracyLevel& level) { apply_accuracy(world, level); });
     }
-    const LoopStats stats = loop.run(steps, [&](const TickInfo&) { return tick(); });
+    // With instruments, the haptic thread runs beside the physics loop (scene_haptics.h); each
+    // physics step refreshes its models.
+    std::unique_ptr<SceneHaptics> haptics;
+    if (options.haptics && !runner.instance().instruments.empty()) {
+      const double expected = static_cast<double>(steps) * std::max(dt, loop_settings.period()) * 4.0 + 1.0;
+      haptics = std::make_unique<SceneHaptics>(clock, runner, HapticLimits{}, expected, options.realtime_priority);
+      haptics->start();
+    }
+    const LoopStats stats = loop.run(steps, [&](const TickInfo&) {
+      if (!tick()) return false;
+      if (haptics) haptics->refresh(runner, clock.now());
+      return true;
+    });
+    if (haptics) {
+      haptics->stop();
+      std::vector<std::string> names;
+      for (const Instrument& i : runner.instance().instruments) names.push_back(i.name());
+      const std::vector<HapticRecord> records = haptics->records();
+      write_file_atomically((out / "haptic_forces.csv").string(), haptic_forces_csv(records, names));
+      haptic_json = haptic_summary_json(haptics->timing(), haptics->stats());
+    }
     deadline_misses = stats.deadline_misses;
     loop_json = {{"rate_hz", loop_settings.rate_hz},
                  {"budget_ms", loop_settings.budget_or_period() * 1e3},
@@ -203,6 +245,7 @@ int run_scene(const RunOptions& options, std::ostream& log) {
       {"final_tool_force", tool_forces},
       {"deadline_misses", options.realtime ? nlohmann::json(deadline_misses) : nlohmann::json(nullptr)},
       {"realtime_loop", loop_json},
+      {"haptics", haptic_json},
       {"final_energy",
        {{"kinetic", last.energy.kinetic},
         {"elastic", last.energy.elastic},
@@ -226,8 +269,13 @@ int run_scene(const RunOptions& options, std::ostream& log) {
     for (size_t i = 0; i < instruments.size(); ++i) {
       line << ", " << instruments[i].name() << " force " << runner.readings()[i].force.norm() << " N";
     }
+    if (!haptic_json.is_null() && !haptic_json["period_jitter_ms"].is_null()) {
+      line << "\npliant run: haptics " << haptic_json["ticks"].get<long>() << " ticks, period jitter p99 "
+           << haptic_json["period_jitter_ms"]["p99"].get<double>() << " ms, deadline misses "
+           << haptic_json["deadline_misses"].get<long>();
+    }
     log << line.str() << "\n" << "pliant run: wrote " << out.string() << "/{summary.json,steps.csv,tool_forces.csv"
-        << (frames.written() > 0 ? ",frames/" : "") << "}\n";
+        << (haptic_json.is_null() ? "" : ",haptic_forces.csv") << (frames.written() > 0 ? ",frames/" : "") << "}\n";
   }
   if (!runner.fault().empty()) {
     log << "pliant run: " << runner.fault() << "\n";

@@ -1,6 +1,7 @@
 // Step-time statistics for the fixed-rate loop: p50, p99 and max of measured tick times.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 namespace pliant {
@@ -18,6 +19,8 @@ class StepTimeStats {
  public:
   void add(double seconds);
   void clear() { samples_.clear(); }
+  /// Preallocates room for n samples (so add() does not allocate until then).
+  void reserve(size_t n) { samples_.reserve(n); }
   long count() const { return static_cast<long>(samples_.size()); }
   /// Nearest-rank percentile: the smallest sample with at least q of the samples <= it; q in (0, 1].
   double percentile(double q) const;
