@@ -115,7 +115,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       const Vec3& x = cb.positions[static_cast<size_t>(v)];
       bounds.extend(x);
       HashedVertex hv{x, {cell_coordinate(x.x(), inv_l), cell_coordinate(x.y(), inv_l),
-                          cell_coordinate(x.z(), inv_l)}, a, v, -1};
+                          cell_coordinate(x.z(), inv_l)}, a, v, -1, -1};
       const auto h = static_cast<size_t>(hash_cell(hv.cell[0], hv.cell[1], hv.cell[2], n));
       Bucket& bucket = buckets_[h];
       if (bucket.stamp != stamp_) {
@@ -123,6 +123,11 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         bucket.head = -1;
       }
       hv.next = bucket.head;
+      if (bucket.head >= 0) {
+        // Same body as the head: share its run's exit; else this entry starts a new run.
+        const HashedVertex& head = hashed_[static_cast<size_t>(bucket.head)];
+        hv.next_body = head.body == a ? head.next_body : bucket.head;
+      }
       bucket.head = static_cast<int>(hashed_.size());
       hashed_.push_back(hv);
     }
@@ -134,8 +139,10 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     const CollisionBody& cb = bodies[static_cast<size_t>(b)];
     // Bounds of all vertices that may enter this body: tets outside them need no lookup.
     Aabb partners;
+    partner_.assign(static_cast<size_t>(body_count), 0);
     for (int a = 0; a < body_count; ++a) {
       if (hashes_vertices_[static_cast<size_t>(a)] && filter.allowed(a, b)) {
+        partner_[static_cast<size_t>(a)] = 1;
         const Aabb& va = vertex_bounds_[static_cast<size_t>(a)];
         partners.extend(va.min);
         partners.extend(va.max);
@@ -158,7 +165,6 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
 
       // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
       auto test = [&](const HashedVertex& hv) {
-        if (!filter.allowed(hv.body, b)) return;
         if (hv.body == b && (hv.vertex == tet[0] || hv.vertex == tet[1] || hv.vertex == tet[2] ||
                              hv.vertex == tet[3])) {
           return;
@@ -182,7 +188,9 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
                            (static_cast<double>(k1) - k0 + 1);
       if (cells > static_cast<double>(hashed_.size())) {
         // A tet far larger than a cell (badly stretched): scanning all vertices is cheaper.
-        for (const HashedVertex& hv : hashed_) test(hv);
+        for (const HashedVertex& hv : hashed_) {
+          if (partner_[static_cast<size_t>(hv.body)]) test(hv);
+        }
         continue;
       }
       for (int i = i0; i <= i1; ++i) {
@@ -192,8 +200,15 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
             const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
             const Bucket& bucket = buckets_[h];
             if (bucket.stamp != stamp_) continue;
-            for (int e = bucket.head; e >= 0; e = hashed_[static_cast<size_t>(e)].next) {
+            for (int e = bucket.head; e >= 0;) {
               const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
+              ++stats_.entries_scanned;
+              // A body that may not touch this one (e.g. the tet's own body): skip its whole run.
+              if (!partner_[static_cast<size_t>(hv.body)]) {
+                e = hv.next_body;
+                continue;
+              }
+              e = hv.next;
               // Another cell hashed to this bucket: its vertices are found (or not) from that cell.
               if (hv.cell[0] != i || hv.cell[1] != j || hv.cell[2] != k) continue;
               test(hv);

@@ -5,7 +5,10 @@
 // instead of being cleared: a bucket whose stamp is not the current step's is empty. Each bucket is
 // a singly linked list threaded through a flat array of hashed vertices, each of which keeps a copy
 // of its position and its integer cell, so pass 2 reads one contiguous record per candidate and
-// drops hash collisions from other cells with three integer compares. Pass 1 hashes the vertices
+// drops hash collisions from other cells with three integer compares. Bodies are inserted in
+// order, so a bucket's list holds each body's entries as one run; every entry links past its run,
+// and pass 2 jumps over a whole run of a body that may not touch the tet's body (a tool's own
+// vertices crowding the cells of its own tets cost one read per bucket). Pass 1 hashes the vertices
 // of every body that may touch some body (CollisionFilter); pass 2 walks the cells covered by each
 // tet's AABB for every body that may be penetrated, skips the tet's own vertices, tests the AABB,
 // then the barycentric coordinates. Candidates are sorted so the output is ordered by
@@ -39,6 +42,7 @@ struct SpatialHashStats {
   long long cells_visited = 0;      ///< cell lookups in pass 2
   long long inside_tests = 0;       ///< barycentric tests performed
   long long candidates_found = 0;   ///< (vertex, tet) pairs found inside, before de-duplication
+  long long entries_scanned = 0;    ///< bucket entries read in pass 2 (skipped body runs not counted)
 };
 
 class SpatialHash {
@@ -71,6 +75,7 @@ class SpatialHash {
     int body;
     int vertex;
     int next;  ///< index of the next hashed vertex in this bucket, -1 at the end
+    int next_body;  ///< first entry after this one's run of same-body entries in the bucket, -1 at the end
   };
 
   SpatialHashOptions options_;
@@ -87,6 +92,7 @@ class SpatialHash {
   std::vector<char> hashes_vertices_;   ///< per body: its vertices go into the table
   std::vector<char> has_tets_;          ///< per body: its tets are tested in pass 2
   std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its hashed vertices
+  std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
   std::vector<VertexInTet> candidates_;
 };
 
