@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <random>
 
@@ -144,27 +145,49 @@ void BM_PenetrationDepth(benchmark::State& state) {
 BENCHMARK(BM_PenetrationDepth)->Args({10000, 4})->Args({100000, 4})->Args({100000, 8})
     ->ArgNames({"tets", "cells"})->Unit(benchmark::kMillisecond);
 
-// The probe scene of `pliant bench probe --warm-up 700` (assets/scenes/probe.json: 1,931 vertices,
-// tissue 12x12x5 cells and a sphere-tipped probe pressed in): stages 1 and 2 alone on two
-// consecutive recorded steps, alternated per iteration so positions change every call as in a run.
+// The probe scene of `pliant bench probe --warm-up 700 --steps 100` (assets/scenes/probe.json:
+// 1,931 vertices, tissue 12x12x5 cells and a sphere-tipped probe being pressed in): stages 1 and 2
+// alone, on the exact positions stage 1 saw in steps `step` + 1 and + 2 (750: the middle of that
+// window, probe touching; 1100: pressed 12 mm, held), recorded by a StepProfiler when the detect
+// stage begins, alternated per iteration so positions change every call as in a run.
 struct ProbeSnapshots {
   std::vector<std::vector<std::vector<Vec3>>> positions;  // [snapshot][body]
   std::vector<const TetMesh*> meshes;
   std::vector<bool> kinematic;
+  std::vector<int> world_colliding;     // colliding vertices World reported in those steps
   std::unique_ptr<SceneRunner> runner;  // owns the meshes
 };
 
-const ProbeSnapshots& probe_snapshots() {
-  static const ProbeSnapshots snapshots = [] {
+// Copies every body's positions when the detect stage begins (after integration, before response).
+class DetectInputRecorder : public StepProfiler {
+ public:
+  explicit DetectInputRecorder(const World& world) : world_(world) {}
+  void begin(StepStage stage) override {
+    if (stage != StepStage::detect) return;
+    positions.clear();
+    for (const Body* body : world_.bodies()) positions.emplace_back(body->positions.begin(), body->positions.end());
+  }
+  void end(StepStage) override {}
+  std::vector<std::vector<Vec3>> positions;
+
+ private:
+  const World& world_;
+};
+
+const ProbeSnapshots& probe_snapshots(int warm_up_steps) {
+  static std::map<int, ProbeSnapshots> cache;
+  auto it = cache.find(warm_up_steps);
+  if (it != cache.end()) return it->second;
+  return cache[warm_up_steps] = [&] {
     ProbeSnapshots s;
     const auto file = std::filesystem::path(__FILE__).parent_path().parent_path() / "assets/scenes/probe.json";
     s.runner = std::make_unique<SceneRunner>(load_scene(file.string()));
-    for (int i = 0; i < 700; ++i) s.runner->tick();
+    for (int i = 0; i < warm_up_steps; ++i) s.runner->tick();
+    DetectInputRecorder recorder(s.runner->world());
     for (int k = 0; k < 2; ++k) {
-      s.runner->tick();
-      std::vector<std::vector<Vec3>> step;
-      for (const Body* body : s.runner->world().bodies()) step.emplace_back(body->positions.begin(), body->positions.end());
-      s.positions.push_back(std::move(step));
+      s.runner->tick(&recorder);
+      s.positions.push_back(recorder.positions);
+      s.world_colliding.push_back(s.runner->report().colliding_vertices);
     }
     for (const Body* body : s.runner->world().bodies()) {
       s.meshes.push_back(body->mesh.get());
@@ -172,7 +195,6 @@ const ProbeSnapshots& probe_snapshots() {
     }
     return s;
   }();
-  return snapshots;
 }
 
 // Collision bodies and filter as World::detect builds them (no self-collision, kinematic pairs off).
@@ -194,7 +216,7 @@ std::vector<CollisionBody> probe_bodies(const ProbeSnapshots& s, int snapshot, C
 }
 
 void BM_ProbeDetect(benchmark::State& state) {
-  const ProbeSnapshots& s = probe_snapshots();
+  const ProbeSnapshots& s = probe_snapshots(static_cast<int>(state.range(0)));
   CollisionFilter filter[2];
   const std::vector<CollisionBody> bodies[2] = {probe_bodies(s, 0, filter[0]), probe_bodies(s, 1, filter[1])};
   SpatialHash hash;
@@ -207,16 +229,17 @@ void BM_ProbeDetect(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data());
   }
   state.counters["colliding"] = static_cast<double>(out.size());
+  state.counters["world_colliding"] = s.world_colliding[static_cast<size_t>(k)];
   state.counters["tets_visited"] = static_cast<double>(hash.stats().tets_visited);
   state.counters["cells_visited"] = static_cast<double>(hash.stats().cells_visited);
   state.counters["inside_tests"] = static_cast<double>(hash.stats().inside_tests);
   state.counters["cell_size_mm"] = 1e3 * hash.stats().cell_size;
   state.counters["entries_scanned"] = static_cast<double>(hash.stats().entries_scanned);
 }
-BENCHMARK(BM_ProbeDetect)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ProbeDetect)->Arg(750)->Arg(1100)->ArgName("step")->Unit(benchmark::kMicrosecond);
 
 void BM_ProbeDepth(benchmark::State& state) {
-  const ProbeSnapshots& s = probe_snapshots();
+  const ProbeSnapshots& s = probe_snapshots(static_cast<int>(state.range(0)));
   CollisionFilter filter[2];
   const std::vector<CollisionBody> bodies[2] = {probe_bodies(s, 0, filter[0]), probe_bodies(s, 1, filter[1])};
   SpatialHash hash;
@@ -237,7 +260,7 @@ void BM_ProbeDepth(benchmark::State& state) {
                                                         benchmark::Counter::kIsIterationInvariantRate |
                                                             benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_ProbeDepth)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ProbeDepth)->Arg(750)->Arg(1100)->ArgName("step")->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace pliant
