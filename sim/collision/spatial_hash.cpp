@@ -103,16 +103,42 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
   stats_.table_size = static_cast<int>(n);
   stats_.cell_size = l;
 
-  // Pass 1: hash every vertex of the bodies that may touch something.
+  // Bounds of every participating body's vertices; its tets lie inside them.
+  body_bounds_.assign(static_cast<size_t>(body_count), Aabb{});
+  for (int a = 0; a < body_count; ++a) {
+    const auto i = static_cast<size_t>(a);
+    if (!hashes_vertices_[i] && !has_tets_[i]) continue;
+    for (const Vec3& x : bodies[i].positions.first(static_cast<size_t>(bodies[i].mesh->vertex_count()))) {
+      body_bounds_[i].extend(x);
+    }
+  }
+
+  // Pass 1: hash the vertices of the bodies that may touch something, but only those inside the
+  // bounds of some body they may touch: no other vertex can be inside one of its tets.
   hashed_.clear();
   vertex_bounds_.assign(static_cast<size_t>(body_count), Aabb{});
   for (int a = 0; a < body_count; ++a) {
     if (!hashes_vertices_[static_cast<size_t>(a)]) continue;
     const CollisionBody& cb = bodies[static_cast<size_t>(a)];
+    const Aabb& own = body_bounds_[static_cast<size_t>(a)];
+    partner_boxes_.clear();
+    for (int b = 0; b < body_count; ++b) {
+      const Aabb& box = body_bounds_[static_cast<size_t>(b)];
+      if (has_tets_[static_cast<size_t>(b)] && filter.allowed(a, b) && box.overlaps(own)) partner_boxes_.push_back(box);
+    }
+    if (partner_boxes_.empty()) continue;
     Aabb& bounds = vertex_bounds_[static_cast<size_t>(a)];
     const int nv = cb.mesh->vertex_count();
     for (int v = 0; v < nv; ++v) {
       const Vec3& x = cb.positions[static_cast<size_t>(v)];
+      bool inside = false;
+      for (const Aabb& box : partner_boxes_) {
+        if ((x.array() >= box.min.array()).all() && (x.array() <= box.max.array()).all()) {
+          inside = true;
+          break;
+        }
+      }
+      if (!inside) continue;
       bounds.extend(x);
       HashedVertex hv{x, {cell_coordinate(x.x(), inv_l), cell_coordinate(x.y(), inv_l),
                           cell_coordinate(x.z(), inv_l)}, a, v, -1, -1};
@@ -132,6 +158,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       hashed_.push_back(hv);
     }
   }
+  stats_.inserted_vertices = static_cast<int>(hashed_.size());
 
   // Pass 2: for each tet of a body that may be penetrated, visit the cells of its AABB.
   for (int b = 0; b < body_count; ++b) {
@@ -148,10 +175,28 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         partners.extend(va.max);
       }
     }
+    if (partners.empty()) continue;
+    // Cohen-Sutherland out-codes against the partners' box: a tet all of whose corners lie beyond
+    // one of its faces cannot overlap it (the same decision as the box test below, without the box).
+    const int nv = cb.mesh->vertex_count();
+    if (outcode_.size() < static_cast<size_t>(nv)) outcode_.resize(static_cast<size_t>(nv));
+    for (int v = 0; v < nv; ++v) {
+      const Vec3& x = cb.positions[static_cast<size_t>(v)];
+      unsigned code = 0;
+      for (int k = 0; k < 3; ++k) {
+        code |= (x[k] < partners.min[k] ? 1u : 0u) << (2 * k);
+        code |= (x[k] > partners.max[k] ? 2u : 0u) << (2 * k);
+      }
+      outcode_[static_cast<size_t>(v)] = static_cast<unsigned char>(code);
+    }
     const auto& tets = cb.mesh->tets();
     const int nt = static_cast<int>(tets.size());
     for (int t = 0; t < nt; ++t) {
       const TetIndices& tet = tets[static_cast<size_t>(t)];
+      if ((outcode_[static_cast<size_t>(tet[0])] & outcode_[static_cast<size_t>(tet[1])] &
+           outcode_[static_cast<size_t>(tet[2])] & outcode_[static_cast<size_t>(tet[3])]) != 0) {
+        continue;
+      }
       const Vec3* x[4];
       Aabb box;
       for (int k = 0; k < 4; ++k) {

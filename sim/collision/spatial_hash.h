@@ -9,9 +9,11 @@
 // order, so a bucket's list holds each body's entries as one run; every entry links past its run,
 // and pass 2 jumps over a whole run of a body that may not touch the tet's body (a tool's own
 // vertices crowding the cells of its own tets cost one read per bucket). Pass 1 hashes the vertices
-// of every body that may touch some body (CollisionFilter); pass 2 walks the cells covered by each
-// tet's AABB for every body that may be penetrated, skips the tet's own vertices, tests the AABB,
-// then the barycentric coordinates. Candidates are sorted so the output is ordered by
+// of every body that may touch some body (CollisionFilter), but only those inside the bounds of a
+// body they may touch (a tool's shaft, the tissue away from the tool: never inside a partner's
+// tet); pass 2 walks the cells covered by each tet's AABB for every body that may be penetrated,
+// after an out-code reject against the bounds of the inserted partner vertices, skips the tet's
+// own vertices, tests the AABB, then the barycentric coordinates. Candidates are sorted so the output is ordered by
 // (body, vertex, penetrated body) and one tet per (vertex, penetrated body) is kept: the one with
 // the largest minimum barycentric coordinate (the tet the vertex is deepest in), ties by index.
 // Bodies filtered out cost nothing; no allocation happens once the buffers have grown.
@@ -35,7 +37,8 @@ struct SpatialHashOptions {
 
 /// What the last detect() did (for benchmarks and diagnostics).
 struct SpatialHashStats {
-  int hashed_vertices = 0;   ///< vertices inserted in pass 1
+  int hashed_vertices = 0;   ///< vertices of the bodies taking part in pass 1 (sizes the table)
+  int inserted_vertices = 0; ///< of those, inserted: inside the bounds of a body they may touch
   int table_size = 0;        ///< prime number of buckets
   double cell_size = 0.0;    ///< edge of a cubic cell (m)
   long long tets_visited = 0;       ///< tets whose cells were looked up in pass 2
@@ -91,7 +94,10 @@ class SpatialHash {
   std::vector<HashedVertex> hashed_;
   std::vector<char> hashes_vertices_;   ///< per body: its vertices go into the table
   std::vector<char> has_tets_;          ///< per body: its tets are tested in pass 2
-  std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its hashed vertices
+  std::vector<Aabb> body_bounds_;       ///< per body: bounds of all its vertices (participating bodies)
+  std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its inserted vertices
+  std::vector<Aabb> partner_boxes_;     ///< pass 1 scratch: bounds of the bodies one body may touch
+  std::vector<unsigned char> outcode_;  ///< pass 2 scratch: per vertex, side bits against the partners' box
   std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
   std::vector<VertexInTet> candidates_;
 };
