@@ -174,11 +174,24 @@ int run_scene(const RunOptions& options, std::ostream& log) {
       haptics = std::make_unique<SceneHaptics>(clock, runner, HapticLimits{}, expected, options.realtime_priority);
       haptics->start();
     }
-    const LoopStats stats = loop.run(steps, [&](const TickInfo&) {
-      if (!tick()) return false;
-      if (haptics) haptics->refresh(runner, clock.now());
-      return true;
+    // ticks.csv: one row per tick run, for load tests and replays of a session's timing
+    // (scripts/load_test.sh): the slot on the period grid, when it was due by the loop's clock,
+    // its step time, whether it missed the budget, and the accuracy it ran at.
+    CsvOutput ticks_csv(out / "ticks.csv",
+                        "slot,scheduled_s,step_ms,deadline_miss,binary_search_iterations,solver_iterations");
+    const double budget = loop_settings.budget_or_period();
+    const LoopStats stats = loop.run(steps, [&](const TickInfo& info) {
+      const AccuracyLevel level = current_accuracy(world);
+      const double start = clock.now();
+      const bool go_on = tick();
+      if (go_on && haptics) haptics->refresh(runner, clock.now());
+      const double took = clock.now() - start;
+      ticks_csv.stream() << info.slot << ',' << info.scheduled_time << ',' << took * 1e3 << ','
+                         << (took > budget ? 1 : 0) << ',' << level.binary_search_iterations << ','
+                         << level.max_solver_iterations << '\n';
+      return go_on;
     });
+    ticks_csv.close();
     if (haptics) {
       haptics->stop();
       std::vector<std::string> names;
@@ -275,7 +288,7 @@ int run_scene(const RunOptions& options, std::ostream& log) {
            << haptic_json["deadline_misses"].get<long>();
     }
     log << line.str() << "\n" << "pliant run: wrote " << out.string() << "/{summary.json,steps.csv,tool_forces.csv"
-        << (haptic_json.is_null() ? "" : ",haptic_forces.csv") << (frames.written() > 0 ? ",frames/" : "") << "}\n";
+        << (options.realtime ? ",ticks.csv" : "") << (haptic_json.is_null() ? "" : ",haptic_forces.csv") << (frames.written() > 0 ? ",frames/" : "") << "}\n";
   }
   if (!runner.fault().empty()) {
     log << "pliant run: " << runner.fault() << "\n";
