@@ -10,6 +10,7 @@
 # accuracy, so one sees the loop keep running, count its misses, engage the governor, and recover.
 #
 #   scripts/load_test.sh [SCENE] [OUT] [IDLE_S] [BUSY_S] [BUSY_PROCS]
+#   (the scene's time step should equal its loop period, so --duration is wall time)
 #   defaults: assets/scenes/load_test.json out-load 10 10 1
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
