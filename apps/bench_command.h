@@ -23,6 +23,7 @@ struct BenchOptions {
   std::string json;                    ///< write the table as JSON here (empty: do not)
   std::string csv;                     ///< write the table as CSV here (empty: do not)
   bool friction_variants = true;       ///< add a friction-off row for scenes with friction
+  bool cpu_time = false;               ///< time stages in thread CPU time, not wall time (shared machine)
   bool haptic = false;                 ///< the haptic benchmark instead (run_haptic_bench)
   double seconds = 10.0;               ///< haptic benchmark: wall-clock seconds per scene
   bool realtime_priority = true;       ///< haptic benchmark: ask SCHED_FIFO for the haptic thread

@@ -84,6 +84,7 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--contact", bench_contact, "Contact method for every scene")
       ->check(CLI::IsMember({"surface", "penalty", "none"}));
   bench_cmd->add_flag("--no-variants", bench_no_variants, "No friction-off rows");
+  bench_cmd->add_flag("--cpu-time", bench.cpu_time, "Time the stages in thread CPU time (a shared, loaded machine)");
   bool bench_no_rt = false;
   bench_cmd->add_flag("--haptic", bench.haptic,
                       "Haptic benchmark: physics back to back with the 1 kHz haptic thread beside it "

@@ -1,5 +1,7 @@
 #include "interaction/clock.h"
 
+#include <time.h>
+
 #include <thread>
 
 namespace pliant {
@@ -17,6 +19,17 @@ void SteadyClock::sleep_until(double t) {
   const auto spin = std::chrono::microseconds(100);
   if (std::chrono::steady_clock::now() + spin < deadline) std::this_thread::sleep_until(deadline - spin);
   while (std::chrono::steady_clock::now() < deadline) {
+  }
+}
+
+double ThreadCpuClock::now() const {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+void ThreadCpuClock::sleep_until(double t) {
+  while (now() < t) {
   }
 }
 

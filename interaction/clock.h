@@ -27,6 +27,15 @@ class SteadyClock final : public Clock {
   std::chrono::steady_clock::time_point epoch_;
 };
 
+/// CPU time of the calling thread (CLOCK_THREAD_CPUTIME_ID): for profiling on a shared machine,
+/// where wall time includes the time other processes ran. Each thread sees its own time, so use
+/// it from one thread. sleep_until spins (CPU time only passes while running).
+class ThreadCpuClock final : public Clock {
+ public:
+  double now() const override;
+  void sleep_until(double t) override;
+};
+
 /// A clock that moves only when told: sleep_until jumps to t, advance adds time. Deterministic.
 class VirtualClock final : public Clock {
  public:
