@@ -129,15 +129,22 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     const Vec3& p = x[static_cast<size_t>(c.vertex)];
     double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
     Vec3 direction_sum = Vec3::Zero(), nearest_normal = Vec3::Zero();
+    // Outgoing edges to non-colliding neighbours q. Keep the intersection nearest q: the first
+    // hit of the segment from q towards p (t in [0, 1]); one traversal for all of p's edges.
+    fan_origins_.clear();
+    fan_exclude_.clear();
     for (int q : mesh.vertex_neighbors(c.vertex)) {
       if (slot_of(q) >= 0) continue;
-      ++stats_.edge_intersections;
-      // Keep the intersection nearest the non-colliding end q: the first hit of the ray from q
-      // towards p, t in [0, 1] (nearest-first traversal prunes the rest of the surface).
-      const Vec3& xq = x[static_cast<size_t>(q)];
-      SurfacePoint best;
-      const bool hit = surface.bvh.first_ray_hit(xq, p - xq, self ? q : -1, best, 1.0, self ? c.vertex : -1);
-      if (!hit) continue;
+      fan_origins_.push_back(x[static_cast<size_t>(q)]);
+      fan_exclude_.push_back(self ? q : -1);
+    }
+    stats_.edge_intersections += static_cast<long long>(fan_origins_.size());
+    fan_hits_.resize(fan_origins_.size());
+    fan_found_.resize(fan_origins_.size());
+    surface.bvh.first_segment_hits(p, self ? c.vertex : -1, fan_origins_, fan_exclude_, fan_hits_, fan_found_);
+    for (size_t e = 0; e < fan_origins_.size(); ++e) {
+      if (!fan_found_[e]) continue;
+      const SurfacePoint& best = fan_hits_[e];
       const Vec3 normal = smoothed_normal(surface, best);
       const double d2 = (best.point - p).squaredNorm();
       const double w = 1.0 / std::max(d2, min_distance_squared);

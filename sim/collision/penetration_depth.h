@@ -83,6 +83,10 @@ class PenetrationDepthSolver {
   std::uint32_t group_stamp_ = 0;
   std::vector<int> layer_;                    ///< per group entry: -1 unprocessed, else layer
   std::vector<int> frontier_, next_;          ///< propagation fronts (group entry indices)
+  std::vector<Vec3> fan_origins_;             ///< a border point's non-colliding neighbours (positions)
+  std::vector<int> fan_exclude_;              ///< their vertex indices in self-collision, else -1
+  std::vector<SurfacePoint> fan_hits_;        ///< first hit of each edge from the neighbour
+  std::vector<char> fan_found_;               ///< the edge crosses the surface
 };
 
 }  // namespace pliant

@@ -14,18 +14,32 @@ struct SlabRay {
   Vec3 origin;
   Vec3 inv = Vec3::Zero();
   bool parallel[3] = {false, false, false};
+  bool any_parallel = false;
 
   SlabRay(const Vec3& o, const Vec3& d) : origin(o) {
     for (int k = 0; k < 3; ++k) {
       parallel[k] = std::abs(d[k]) < 1e-30;
+      any_parallel = any_parallel || parallel[k];
       if (!parallel[k]) inv[k] = 1.0 / d[k];
     }
   }
 
-  // Does origin + t dir meet box for some t in [0, t_max]? Entry parameter in t_enter.
+  // Does origin + t dir meet box for some t in [0, t_max]? Entry parameter in t_enter. The entry
+  // only grows and the exit only shrinks axis by axis, so testing them once at the end (branch
+  // free, the common case of no parallel axis) decides exactly as testing after every axis.
   bool hits(const Aabb& box, double t_max, double& t_enter) const {
     double t0 = 0.0;
     double t1 = t_max;
+    if (!any_parallel) {
+      for (int k = 0; k < 3; ++k) {
+        const double ta = (box.min[k] - origin[k]) * inv[k];
+        const double tb = (box.max[k] - origin[k]) * inv[k];
+        t0 = std::max(t0, std::min(ta, tb));
+        t1 = std::min(t1, std::max(ta, tb));
+      }
+      t_enter = t0;
+      return t0 <= t1;
+    }
     for (int k = 0; k < 3; ++k) {
       if (parallel[k]) {
         if (origin[k] < box.min[k] || origin[k] > box.max[k]) return false;
@@ -69,6 +83,15 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   if (n == 0) return;
   nodes_.reserve(static_cast<size_t>(2 * (n / kLeafSize + 1)));
   build_node(0, n, 0);
+  prepare_triangles();
+}
+
+void SurfaceBvh::prepare_triangles() {
+  prepared_.resize(order_.size());
+  for (size_t j = 0; j < order_.size(); ++j) {
+    const int tri = order_[j];
+    prepared_[j] = PreparedTriangle::of(corner(tri, 0), corner(tri, 1), corner(tri, 2));
+  }
 }
 
 void SurfaceBvh::refit(std::span<const Vec3> x) {
@@ -98,6 +121,7 @@ void SurfaceBvh::refit(std::span<const Vec3> x) {
     }
     node.box = box;
   }
+  prepare_triangles();
 }
 
 int SurfaceBvh::build_node(int begin, int end, int depth) {
@@ -136,6 +160,7 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
                                double t_max, int exclude_b) const {
   if (nodes_.empty()) return false;
   const SlabRay ray(origin, dir);
+  const double dir_squared = dir.squaredNorm();
   double best_t = t_max;
   int best_tri = -1;
   Vec3 best_bary = Vec3::Zero();
@@ -177,7 +202,7 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
       const int tri = order_[static_cast<size_t>(i)];
       if (excluded(tri, exclude_a, exclude_b)) continue;
       TriangleHit h;
-      if (ray_triangle_intersection(origin, dir, corner(tri, 0), corner(tri, 1), corner(tri, 2), 0.0, best_t, h)) {
+      if (ray_triangle_intersection(origin, dir, dir_squared, prepared_[static_cast<size_t>(i)], 0.0, best_t, h)) {
         if (best_tri < 0 || h.t < best_t || (h.t == best_t && tri < best_tri)) {
           best_t = h.t;
           best_tri = tri;
@@ -194,6 +219,79 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
   hit.t = best_t;
   hit.distance_squared = (hit.point - origin).squaredNorm();
   return true;
+}
+
+void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<const Vec3> origins,
+                                    std::span<const int> exclude_origins, std::span<SurfacePoint> hits,
+                                    std::span<char> found) const {
+  const int total = static_cast<int>(origins.size());
+  for (int begin = 0; begin < total; begin += kFanChunk) {
+    const int m = std::min(kFanChunk, total - begin);
+    Aabb fan, seg[kFanChunk];
+    Vec3 dir[kFanChunk];
+    double best_t[kFanChunk], dir_squared[kFanChunk];
+    int best_tri[kFanChunk];
+    Vec3 best_bary[kFanChunk];
+    fan.extend(end);
+    for (int i = 0; i < m; ++i) {
+      const Vec3& o = origins[static_cast<size_t>(begin + i)];
+      fan.extend(o);
+      seg[i].extend(o);
+      seg[i].extend(end);
+      dir[i] = end - o;
+      dir_squared[i] = dir[i].squaredNorm();
+      best_t[i] = 1.0;
+      best_tri[i] = -1;
+      best_bary[i] = Vec3::Zero();
+    }
+    // Every node and triangle whose box meets the fan's box; a triangle is tested against each
+    // segment whose own box it meets. The smallest (t, triangle) per segment is kept, as the
+    // nearest-first traversal of first_ray_hit keeps it, so the order of visits does not matter.
+    int stack[kMaxStack];
+    int top = 0;
+    if (!nodes_.empty()) stack[top++] = 0;
+    while (top > 0) {
+      const int n = stack[--top];
+      const Node& node = nodes_[static_cast<size_t>(n)];
+      if (!node.box.overlaps(fan)) continue;
+      if (node.count == 0) {
+        stack[top++] = node.first;
+        stack[top++] = n + 1;
+        continue;
+      }
+      for (int j = node.first; j < node.first + node.count; ++j) {
+        const int tri = order_[static_cast<size_t>(j)];
+        const Aabb& box = boxes_[static_cast<size_t>(tri)];
+        if (!box.overlaps(fan)) continue;
+        for (int i = 0; i < m; ++i) {
+          if (!box.overlaps(seg[i]) || excluded(tri, exclude_origins[static_cast<size_t>(begin + i)], exclude_end)) {
+            continue;
+          }
+          TriangleHit h;
+          if (ray_triangle_intersection(origins[static_cast<size_t>(begin + i)], dir[i], dir_squared[i],
+                                        prepared_[static_cast<size_t>(j)], 0.0, best_t[i], h)) {
+            if (best_tri[i] < 0 || h.t < best_t[i] || (h.t == best_t[i] && tri < best_tri[i])) {
+              best_t[i] = h.t;
+              best_tri[i] = tri;
+              best_bary[i] = h.barycentric;
+            }
+          }
+        }
+      }
+    }
+    for (int i = 0; i < m; ++i) {
+      const auto k = static_cast<size_t>(begin + i);
+      found[k] = best_tri[i] >= 0 ? 1 : 0;
+      if (best_tri[i] < 0) continue;
+      SurfacePoint& hit = hits[k];
+      const int t = best_tri[i];
+      hit.triangle = t;
+      hit.barycentric = best_bary[i];
+      hit.point = best_bary[i][0] * corner(t, 0) + best_bary[i][1] * corner(t, 1) + best_bary[i][2] * corner(t, 2);
+      hit.t = best_t[i];
+      hit.distance_squared = (hit.point - origins[k]).squaredNorm();
+    }
+  }
 }
 
 bool SurfaceBvh::nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest) const {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "sim/math_types.h"
+#include "sim/collision/triangle_queries.h"
 #include "sim/mesh/tet_mesh.h"
 
 namespace pliant {
@@ -46,6 +47,14 @@ class SurfaceBvh {
   bool first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_a, SurfacePoint& hit,
                      double t_max = std::numeric_limits<double>::max(), int exclude_b = -1) const;
 
+  /// For each segment origins[i] -> end (t in [0, 1], origin at t = 0): the first triangle hit, as
+  /// first_ray_hit(origins[i], end - origins[i], exclude_origins[i], hits[i], 1.0, exclude_end)
+  /// would return it; found[i] = 0 if the segment misses. One traversal per kFanChunk segments
+  /// (a border point's outgoing edges share their end), culled by boxes instead of slab tests.
+  void first_segment_hits(const Vec3& end, int exclude_end, std::span<const Vec3> origins,
+                          std::span<const int> exclude_origins, std::span<SurfacePoint> hits,
+                          std::span<char> found) const;
+
   /// Closest point of the surface to p; false only if no triangle is eligible. Triangles containing
   /// vertex `exclude` (-1: none) are skipped.
   bool nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest) const;
@@ -63,6 +72,7 @@ class SurfaceBvh {
   };
   static constexpr int kLeafSize = 4;
   static constexpr int kMaxStack = 128;
+  static constexpr int kFanChunk = 16;
 
   int build_node(int begin, int end, int depth);
   bool excluded(int tri, int exclude_a, int exclude_b) const;
@@ -74,6 +84,8 @@ class SurfaceBvh {
   std::vector<int> order_;
   std::vector<Vec3> centroids_;
   std::vector<Aabb> boxes_;
+  std::vector<PreparedTriangle> prepared_;  ///< per entry of order_ (leaf order): corner and edges
+  void prepare_triangles();
 };
 
 }  // namespace pliant

@@ -15,21 +15,34 @@ struct TriangleHit {
   Vec3 barycentric = Vec3::Zero();      ///< weights of the triangle's corners a, b, c (sum 1, in [0,1])
 };
 
-/// Moller-Trumbore: does origin + t dir (t in [t_min, t_max]) cross triangle (a, b, c)? Points on
-/// the triangle's edges count (a relative slack of 1e-12 in the barycentric coordinates, then
-/// clamped), so a ray through a shared edge is not lost between the two triangles.
-inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, const Vec3& a, const Vec3& b,
-                                      const Vec3& c, double t_min, double t_max, TriangleHit& hit) {
+/// A triangle prepared for many ray tests: corner a, edges e1 = b - a and e2 = c - a, and
+/// |e1|^2 |e2|^2 (the same values ray_triangle_intersection computes from the corners).
+struct PreparedTriangle {
+  Vec3 a, e1, e2;
+  double e1e2_squared = 0.0;
+
+  /// From corners (a, b, c).
+  static PreparedTriangle of(const Vec3& a, const Vec3& b, const Vec3& c) {
+    PreparedTriangle p{a, b - a, c - a, 0.0};
+    p.e1e2_squared = p.e1.squaredNorm() * p.e2.squaredNorm();
+    return p;
+  }
+};
+
+/// ray_triangle_intersection on a prepared triangle; dir_squared = |dir|^2. Bit for bit the same
+/// result (the same operations in the same order), without reloading the corners.
+inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, double dir_squared,
+                                      const PreparedTriangle& tri, double t_min, double t_max, TriangleHit& hit) {
   constexpr double kSlack = 1e-12;
-  const Vec3 e1 = b - a;
-  const Vec3 e2 = c - a;
+  const Vec3& e1 = tri.e1;
+  const Vec3& e2 = tri.e2;
   const Vec3 pvec = dir.cross(e2);
   const double det = e1.dot(pvec);
   // Parallel or degenerate: |det| <= 1e-14 |e1| |e2| |dir|, compared squared (no square roots).
-  const double scale2 = e1.squaredNorm() * e2.squaredNorm() * dir.squaredNorm();
+  const double scale2 = tri.e1e2_squared * dir_squared;
   if (!(det * det > 1e-28 * scale2)) return false;
   const double inv = 1.0 / det;
-  const Vec3 tvec = origin - a;
+  const Vec3 tvec = origin - tri.a;
   const double u = tvec.dot(pvec) * inv;
   if (u < -kSlack || u > 1.0 + kSlack) return false;
   const Vec3 qvec = tvec.cross(e1);
@@ -43,6 +56,14 @@ inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, const
   hit.t = t;
   hit.barycentric = w;
   return true;
+}
+
+/// Moller-Trumbore: does origin + t dir (t in [t_min, t_max]) cross triangle (a, b, c)? Points on
+/// the triangle's edges count (a relative slack of 1e-12 in the barycentric coordinates, then
+/// clamped), so a ray through a shared edge is not lost between the two triangles.
+inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, const Vec3& a, const Vec3& b,
+                                      const Vec3& c, double t_min, double t_max, TriangleHit& hit) {
+  return ray_triangle_intersection(origin, dir, dir.squaredNorm(), PreparedTriangle::of(a, b, c), t_min, t_max, hit);
 }
 
 /// Closest point of triangle (a, b, c) to p, as barycentric weights (Ericson 5.1.5).
