@@ -257,6 +257,7 @@ void World::integrate(double dt) {
     for (size_t i = 0; i < external_forces_.size(); ++i) {
       external_forces_[i] = body->masses[i] * settings_.gravity + body->applied_forces[i];
     }
+    contact_surface_->take_held_forces(*body, external_forces_);  // warm start (ContactSettings)
     IntegrationInput in{body->masses, body->fixed, external_forces_, dt};
     const IntegrationResult r = body->model->advance(body->positions, body->velocities, in);
     report_.solver_iterations_max = std::max(report_.solver_iterations_max, r.solver_iterations);

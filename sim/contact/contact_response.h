@@ -19,6 +19,13 @@ class ContactResponse {
   /// `bodies` is indexed by body slot; null for empty slots.
   virtual void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
                        const ContactSettings& settings, StepReport& report) = 0;
+  /// Warm start: adds to `forces` (N, one per vertex of `body`) the contact forces this response
+  /// holds from its last step, to act during the next integration, and forgets them (each held
+  /// force acts in one integration only). The world calls it for every integrated body.
+  virtual void take_held_forces(const Body& body, std::span<Vec3> forces) {
+    (void)body;
+    (void)forces;
+  }
 };
 
 }  // namespace pliant

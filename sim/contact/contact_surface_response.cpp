@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 namespace pliant {
@@ -148,6 +149,114 @@ double ContactSurfaceResponse::SearchSamples::refine(double bisection) const {
   return has_above ? std::clamp(estimate, 0.0, last.fraction) : std::clamp(estimate, last.fraction, 1.0);
 }
 
+void ContactSurfaceResponse::take_held_forces(const Body& body, std::span<Vec3> forces) {
+  for (auto& h : held_) {
+    if (h.body != &body) continue;
+    if (h.pending && h.force.size() == forces.size()) {
+      for (size_t v = 0; v < forces.size(); ++v) forces[v] += h.force[v];
+      h.taken = true;
+    } else {
+      h.taken = false;  // nothing held since the last response: no held impulse this step
+    }
+    h.pending = false;
+  }
+}
+
+void ContactSurfaceResponse::gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+                                             double dt, bool warm_start) {
+  all_contacts_.assign(contacts.begin(), contacts.end());
+  held_impulses_.assign(contacts.size(), 0.0);
+  lingering_begin_ = contacts.size();
+  if (!warm_start) return;
+  // A held force acted if its body is the same and at least one side was integrated this step.
+  auto acted = [&](const VertexContact& c) {
+    const auto m = static_cast<size_t>(c.body), n = static_cast<size_t>(c.penetrated_body);
+    if (m >= held_.size() || n >= held_.size() || bodies[m] == nullptr || bodies[n] == nullptr) return false;
+    if (held_[m].body != bodies[m] || held_[n].body != bodies[n]) return false;
+    if (held_[m].contact.size() != bodies[m]->positions.size()) return false;
+    return held_[m].taken || held_[n].taken;
+  };
+  held_used_.assign(held_contacts_.size(), 0);
+  for (size_t c = 0; c < contacts.size(); ++c) {
+    if (!acted(contacts[c])) continue;
+    const int idx = held_[static_cast<size_t>(contacts[c].body)].contact[static_cast<size_t>(contacts[c].vertex)];
+    if (idx < 0 || held_used_[static_cast<size_t>(idx)] != 0) continue;
+    if (held_contacts_[static_cast<size_t>(idx)].penetrated_body != contacts[c].penetrated_body) continue;
+    held_impulses_[c] = held_normal_force_[static_cast<size_t>(idx)] * dt;
+    held_used_[static_cast<size_t>(idx)] = 1;
+  }
+  for (size_t idx = 0; idx < held_contacts_.size(); ++idx) {
+    if (held_used_[idx] != 0 || !acted(held_contacts_[idx])) continue;
+    all_contacts_.push_back(held_contacts_[idx]);
+    held_impulses_.push_back(held_normal_force_[idx] * dt);
+  }
+}
+
+void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double dt, double fraction) {
+  held_.resize(bodies.size());
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    HeldForces& h = held_[i];
+    h.body = bodies[i];
+    h.pending = false;
+    h.taken = false;
+    if (bodies[i] == nullptr) continue;
+    const auto n = static_cast<size_t>(bodies[i]->vertex_count());
+    h.force.assign(n, Vec3::Zero());
+    h.contact.assign(n, -1);
+  }
+  held_contacts_.clear();
+  held_normal_force_.clear();
+  // Internal force at each region vertex at the contact surface (the last local evaluation).
+  region_force_.assign(region_.vertices().size(), Vec3::Zero());
+  for (const auto& g : region_.groups()) {
+    for (size_t i = 0; i < g.vertices.size(); ++i) region_force_[static_cast<size_t>(g.region_indices[i])] = g.forces[i];
+  }
+  for (size_t c = 0; c < all_contacts_.size(); ++c) {
+    if (impulses_[c].normal_magnitude <= 0.0) continue;
+    const VertexContact& contact = all_contacts_[c];
+    // Hold at most the elastic force with which the dent pushes back (the sustained part of the
+    // contact force), not the inertial part of an impact: holding that overshoots.
+    double magnitude = fraction * impulses_[c].normal_magnitude / dt;
+    if (c < lingering_begin_) {
+      const Vec3 normal = impulses_[c].normal / impulses_[c].normal_magnitude;
+      const auto& vertices = region_.vertices();
+      const auto x = static_cast<size_t>(region_.contact_vertex(c));
+      // Each movable side's push-back along the normal; the held force is at most the smaller.
+      double restoring = std::numeric_limits<double>::infinity();
+      if (!vertices[x].immovable) restoring = std::max(0.0, -region_force_[x].dot(normal));
+      const auto& tri = region_.contact_triangle_vertices(c);
+      double triangle = 0.0;
+      bool triangle_movable = false;
+      for (int k = 0; k < 3; ++k) {
+        const auto y = static_cast<size_t>(tri[static_cast<size_t>(k)]);
+        if (vertices[y].immovable) continue;
+        triangle_movable = true;
+        triangle += contact.contact_barycentric[k] * std::max(0.0, region_force_[y].dot(normal));
+      }
+      if (triangle_movable) restoring = std::min(restoring, triangle);
+      if (!std::isfinite(restoring)) restoring = 0.0;
+      magnitude = std::min(magnitude, restoring);
+    }
+    if (magnitude <= 0.0) continue;
+    const Vec3 f = magnitude * impulses_[c].normal / impulses_[c].normal_magnitude;  // on the colliding vertex
+    HeldForces& m = held_[static_cast<size_t>(contact.body)];
+    HeldForces& n = held_[static_cast<size_t>(contact.penetrated_body)];
+    int& slot = m.contact[static_cast<size_t>(contact.vertex)];
+    if (slot >= 0) continue;  // a vertex with two contacts holds the first
+    slot = static_cast<int>(held_contacts_.size());
+    held_contacts_.push_back(contact);
+    held_normal_force_.push_back(magnitude);
+    m.force[static_cast<size_t>(contact.vertex)] += f;
+    m.pending = true;
+    const auto& tri = bodies[static_cast<size_t>(contact.penetrated_body)]
+                          ->mesh->surface_triangles()[static_cast<size_t>(contact.contact_triangle)];
+    for (int k = 0; k < 3; ++k) {
+      n.force[static_cast<size_t>(tri[static_cast<size_t>(k)])] -= contact.contact_barycentric[k] * f;
+    }
+    n.pending = true;
+  }
+}
+
 void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                      double dt, const ContactSettings& settings,
                                      StepReport& report) {
@@ -180,7 +289,11 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
     place_region(bodies, vertices);
   }
 
-  if (settings.finishing_projection) finishing_projection(bodies, contacts, region_, 32);
+  if (observer) observer(ContactStage::search);
+  if (settings.finishing_projection) {
+    finishing_projection(bodies, contacts, region_, 32);
+    if (observer) observer(ContactStage::projection);
+  }
 
   // Forces at the final contact surface: pressure imbalance and quasi-static contact forces.
   evaluate_pressures(bodies, region_);
@@ -198,8 +311,19 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   }
   report.pressure_imbalance_mean = imbalance_count > 0 ? imbalance_sum / imbalance_count : 0.0;
 
-  // Stage 5: velocities and friction.
-  apply_contact_velocity_update(bodies, contacts, dt, settings.friction, impulses_);
+  // Stage 5: velocities and friction, with the held normal impulses (warm start).
+  const bool warm_start = settings.held_force_fraction > 0.0;
+  gather_contacts(bodies, contacts, dt, warm_start);
+  apply_contact_velocity_update(bodies, all_contacts_, dt, settings.friction, held_impulses_, lingering_begin_,
+                                impulses_);
+  if (warm_start) {
+    hold_forces(bodies, dt, settings.held_force_fraction);
+  } else {
+    held_.clear();
+    held_contacts_.clear();
+    held_normal_force_.clear();
+  }
+  if (observer) observer(ContactStage::velocity_update);
 
   // Contact forces are the stage-5 impulses over dt: equal and opposite on the two sides of each
   // contact, and exactly the weight for a body resting on a floor. Beside them, each side's own
@@ -220,12 +344,13 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       r.torque += (point - k.pose.translation).cross(f_on_kinematic);
     }
   };
-  for (size_t c = 0; c < contacts.size(); ++c) {
-    const auto& contact = contacts[c];
+  for (size_t c = 0; c < all_contacts_.size(); ++c) {
+    const auto& contact = all_contacts_[c];
     const Vec3 f = (impulses_[c].normal + impulses_[c].friction) / dt;  // on the colliding vertex
+    if (c >= lingering_begin_ && f.squaredNorm() == 0.0) continue;
     report.total_contact_force += f.norm();
     PairContactForce& pair = pair_of(contact.body, contact.penetrated_body);
-    pair.contacts++;
+    if (c < lingering_begin_) pair.contacts++;
     (pair.body_a == contact.body ? pair.force_on_a : pair.force_on_b) += f;
     (pair.body_a == contact.body ? pair.force_on_b : pair.force_on_a) -= f;
     const Body& m = *bodies[static_cast<size_t>(contact.body)];

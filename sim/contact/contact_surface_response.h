@@ -3,6 +3,7 @@
 // friction. Design notes and every choice where the paper is silent: docs/contact-surface.md.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "sim/contact/contact_response.h"
@@ -11,10 +12,21 @@
 
 namespace pliant {
 
+/// Points inside ContactSurfaceResponse::respond() where a diagnostic observer looks at the bodies.
+enum class ContactStage {
+  search,           ///< positions displaced to the contact surface (binary search, secant)
+  projection,       ///< after the finishing projection (only when it is on)
+  velocity_update,  ///< after the velocity update and friction
+};
+
 class ContactSurfaceResponse final : public ContactResponse {
  public:
+  /// Diagnostic hook (energy ledger tests): called after each stage of respond(); empty: none.
+  std::function<void(ContactStage)> observer;
+
   void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
                const ContactSettings& settings, StepReport& report) override;
+  void take_held_forces(const Body& body, std::span<Vec3> forces) override;
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).
@@ -30,6 +42,30 @@ class ContactSurfaceResponse final : public ContactResponse {
     double refine(double bisection) const;
   };
 
+  /// Contact forces of the last step held for the next integration (warm start), per body slot.
+  struct HeldForces {
+    const Body* body = nullptr;  ///< identifies the slot's body (a removed body's entry is ignored)
+    std::vector<Vec3> force;     ///< N per vertex, to act through the next integration
+    std::vector<int> contact;    ///< per vertex: its held contact (index into held_contacts_) or -1
+    bool pending = false;        ///< set by respond(), not yet taken by an integration
+    bool taken = false;          ///< taken by the integration of the current step
+  };
+  /// all_contacts_: this step's contacts, then the held contacts detection did not find again
+  /// (lingering: their held force acted, so the velocity update may take it back); and the
+  /// normal impulse (N s) each one's held force applied in this step.
+  void gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
+                       bool warm_start);
+  /// Stores `fraction` of this step's normal contact forces for the next integration.
+  void hold_forces(std::span<Body* const> bodies, double dt, double fraction);
+
+  std::vector<HeldForces> held_;
+  std::vector<VertexContact> held_contacts_;  ///< last step's contacts with a normal force
+  std::vector<double> held_normal_force_;     ///< N, per held contact
+  std::vector<char> held_used_;               ///< scratch: held contact found again this step
+  std::vector<VertexContact> all_contacts_;   ///< this step's contacts, then the lingering ones
+  std::vector<double> held_impulses_;         ///< N s per entry of all_contacts_
+  std::vector<Vec3> region_force_;            ///< N, internal force per region vertex (scratch)
+  size_t lingering_begin_ = 0;                ///< first lingering entry of all_contacts_
   DeformationRegion region_;
   std::vector<SearchSamples> samples_;              ///< stage 3 result, reused across steps
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact

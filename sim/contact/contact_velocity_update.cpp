@@ -1,5 +1,6 @@
 #include "sim/contact/contact_velocity_update.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace pliant {
@@ -12,7 +13,8 @@ double inverse_mass(const Body& body, int v) {
 }  // namespace
 
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
-                                   double dt, bool friction, std::vector<ContactImpulse>& impulses) {
+                                   double dt, bool friction, std::span<const double> held_normal_impulse,
+                                   size_t lingering_begin, std::vector<ContactImpulse>& impulses) {
   impulses.assign(contacts.size(), ContactImpulse{});
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
@@ -56,13 +58,12 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
 
     const Vec3 v_rel = m.velocities[static_cast<size_t>(contact.vertex)] - v_p;
     const double vn = v_rel.dot(normal);
-    double normal_impulse = 0.0;
-    if (vn < 0.0) {
-      normal_impulse = -vn / w_sum;
-      const Vec3 j = normal_impulse * normal;
-      apply(j, false);
-      impulses[c].normal = j;
-    }
+    const double held = held_normal_impulse.empty() ? 0.0 : held_normal_impulse[c];
+    double normal_impulse = std::max(0.0, held - vn / w_sum);  // total, never adhesive
+    if (c >= lingering_begin) normal_impulse = std::min(normal_impulse, held);  // no push at a distance
+    if (normal_impulse != held) apply((normal_impulse - held) * normal, false);
+    impulses[c].normal = normal_impulse * normal;
+    impulses[c].normal_magnitude = normal_impulse;
     if (!friction) continue;
     const double mu = std::sqrt(m.material.friction * n.material.friction);
     if (mu <= 0.0 || normal_impulse <= 0.0) continue;

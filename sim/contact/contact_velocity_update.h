@@ -10,6 +10,11 @@
 //             mu = sqrt(mu_M mu_N); the friction impulse also moves the vertex by h dv, so a
 //             sticking vertex does not creep (its position was integrated with the old velocity).
 // Removing relative velocity with equal and opposite impulses never adds kinetic energy.
+// Warm start (held contact forces, docs/contact-surface.md): when the contact's normal force of
+// the last step already acted through this step's integration as the impulse J_held, the update
+// computes the total normal impulse J = max(0, J_held + dJ) with dJ = -vn / (1/m_x + 1/m_p) and
+// applies only J - J_held: it may take back (part of) the held impulse where the contact separates,
+// never more than it (no adhesion). The friction cone uses the total J.
 #pragma once
 
 #include <span>
@@ -20,15 +25,20 @@
 
 namespace pliant {
 
-/// Per-contact impulses from the velocity update (N s), for force reporting.
+/// Per-contact impulses of the step (N s), for force reporting and the warm start.
 struct ContactImpulse {
-  Vec3 normal = Vec3::Zero();    ///< on the colliding vertex's body
+  Vec3 normal = Vec3::Zero();    ///< on the colliding vertex's body, total (held plus correction)
   Vec3 friction = Vec3::Zero();  ///< on the colliding vertex's body
+  double normal_magnitude = 0.0; ///< |normal| (N s), >= 0
 };
 
 /// Applies the normal velocity update and (if `friction`) Coulomb friction for every contact.
-/// `impulses` gets one entry per contact.
+/// `held_normal_impulse` (N s, one per contact, or empty for none) is the normal impulse that the
+/// held contact force already applied in this step's integration. Contacts from index
+/// `lingering_begin` on are held contacts that detection did not find again: their normal impulse
+/// may only shrink (take back the held one), never grow. `impulses` gets one entry per contact.
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
-                                   double dt, bool friction, std::vector<ContactImpulse>& impulses);
+                                   double dt, bool friction, std::span<const double> held_normal_impulse,
+                                   size_t lingering_begin, std::vector<ContactImpulse>& impulses);
 
 }  // namespace pliant

@@ -156,13 +156,26 @@ inline std::vector<int> vertices_at_height(const TetMesh& mesh, double z) {
   return out;
 }
 
-/// Runs one case and measures it.
-inline Outcome run_case(const Case& c) {
-  Outcome out;
+/// The two bodies of a case's scene and its energy scale.
+struct Scene {
+  BodyId lower, upper;
+  Vec3 start = Vec3::Zero();  ///< m, the upper block's initial translation
+  double scale = 0.0;         ///< J, sum over deformable bodies of m g (thickness)
+  double min_dihedral_deg = 180.0;
+  bool ok = true;             ///< false: the sliver mesh could not be built
+};
+
+/// The world settings of a case.
+inline WorldSettings world_settings(const Case& c) {
   WorldSettings settings;
   settings.contact.method = c.method;
   settings.contact.finishing_projection = c.finishing_projection;
-  World world(settings);
+  return settings;
+}
+
+/// Adds the case's two bodies to `world`.
+inline Scene build_scene(const Case& c, World& world) {
+  Scene scene;
 
   const double e_upper = c.young_mean * std::sqrt(c.stiffness_ratio);
   const double e_lower = c.young_mean / std::sqrt(c.stiffness_ratio);
@@ -172,44 +185,61 @@ inline Outcome run_case(const Case& c) {
   BodyDef lower{.name = "lower", .mesh = lower_mesh, .material = material(e_lower, c.poisson, 1000.0)};
   lower.pose.translation = Vec3(0, 0, -0.5 * kLowerHeight);
   lower.fixed_vertices = vertices_at_height(*lower_mesh, -0.5 * kLowerHeight);
-  const BodyId lower_id = world.add_body(lower);
+  scene.lower = world.add_body(lower);
 
   // Upper body: a block (deformable or the kinematic instrument), bottom face at z = -overlap.
   const BoxMeshSpec upper_spec{Vec3(kUpperSize, kUpperSize, kUpperHeight), 4, 4, 2};
   TetMeshPtr upper_mesh;
   if (c.sliver) {
-    upper_mesh = make_sliver_box(upper_spec, &out.min_dihedral_deg);
+    upper_mesh = make_sliver_box(upper_spec, &scene.min_dihedral_deg);
     if (!upper_mesh) {
-      out.finite = false;
-      out.message = "could not build a sliver mesh";
-      return out;
+      scene.ok = false;
+      return scene;
     }
   } else {
     upper_mesh = make_box_mesh(upper_spec);
-    out.min_dihedral_deg = compute_mesh_quality(*upper_mesh).min_dihedral_deg;
+    scene.min_dihedral_deg = compute_mesh_quality(*upper_mesh).min_dihedral_deg;
   }
   const double upper_volume = upper_mesh->total_rest_volume();
   const double density = c.upper_mass > 0.0 ? c.upper_mass / upper_volume : 1000.0;
   const double overlap = c.overlap_fraction * kUpperHeight;
   BodyDef upper{.name = "upper", .mesh = upper_mesh, .material = material(e_upper, c.poisson, density)};
   // Off-centre by a fraction of a cell so no vertex sits exactly on the lower block's vertices.
-  const Vec3 start(0.0013, -0.0007, 0.5 * kUpperHeight - overlap);
-  upper.pose.translation = start;
+  scene.start = Vec3(0.0013, -0.0007, 0.5 * kUpperHeight - overlap);
+  upper.pose.translation = scene.start;
   if (c.partner == Partner::instrument) upper.motion = BodyMotion::kinematic;
-  const BodyId upper_id = world.add_body(upper);
+  scene.upper = world.add_body(upper);
+
+  for (BodyId id : {scene.lower, scene.upper}) {
+    const Body& b = world.body(id);
+    if (b.is_kinematic()) continue;
+    const Aabb box = b.mesh->rest_bounds();
+    scene.scale += b.total_mass() * world.settings().gravity.norm() * (box.max - box.min).z();
+  }
+  return scene;
+}
+
+/// Runs one case and measures it.
+inline Outcome run_case(const Case& c) {
+  Outcome out;
+  const WorldSettings settings = world_settings(c);
+  World world(settings);
+  const Scene scene = build_scene(c, world);
+  out.min_dihedral_deg = scene.min_dihedral_deg;
+  if (!scene.ok) {
+    out.finite = false;
+    out.message = "could not build a sliver mesh";
+    return out;
+  }
+  const BodyId lower_id = scene.lower, upper_id = scene.upper;
+  const Vec3 start = scene.start;
+  const double scale = scene.scale;
 
   const int steps = std::clamp(static_cast<int>(std::lround(c.duration / c.dt)), kMinSteps, kMaxSteps);
   out.steps = steps;
   out.overlap_bound = kOverlapFraction * std::min(kUpperHeight, kLowerHeight);
 
   // Energy floor: a small fraction of the gravitational scale of the deformable bodies.
-  double scale = 0.0;
-  for (BodyId id : {lower_id, upper_id}) {
-    const Body& b = world.body(id);
-    if (b.is_kinematic()) continue;
-    const Aabb box = b.mesh->rest_bounds();
-    scale += b.total_mass() * settings.gravity.norm() * (box.max - box.min).z();
-  }
   const double floor = kEnergyFloorFraction * scale;
 
   double injected = 0.0;

@@ -13,6 +13,24 @@ TEST(Stability, SurfaceSoftOnStiffRatio1e6) {
   expect_stable(c);
 }
 
+// F1, fixed by the held contact forces (docs/stability.md): a block resting on a block of the
+// probe scene's tissue (nu 0.45) stored 10x the budget with the paper's response alone.
+TEST(Stability, SurfaceRestingOnNearlyIncompressibleTissue) {
+  for (double nu : {0.45, 0.49}) {
+    Case c{.name = "surface poisson " + std::to_string(nu), .method = ContactMethod::contact_surface};
+    c.poisson = nu;
+    expect_stable(c);
+  }
+}
+
+// F3 at dt 1 ms, fixed by the held contact forces: a slow press stored more than its work.
+TEST(Stability, SurfaceSlowInstrumentPress) {
+  Case c{.name = "surface instrument 0.01 m/s", .method = ContactMethod::contact_surface,
+         .partner = Partner::instrument};
+  c.speed = 0.01;
+  expect_stable(c);
+}
+
 TEST(Stability, SurfaceTinyStep) {
   Case c{.name = "surface dt 1e-5", .method = ContactMethod::contact_surface};
   c.dt = 1e-5;
