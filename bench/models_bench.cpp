@@ -1,7 +1,14 @@
 // Deformation model costs on a cantilever beam of 75 x 4 x 4 Kuhn cells (1,900 nodes, 7,200 tets;
 // the issue's ~2,000-node / ~7,300-tet beam): internal forces per tet, one K' product (the body of a
-// CG iteration) per tet, matrix-free against assembled, and a full implicit step at the default
-// 20 CG iterations (SOFA's published figure for a comparable beam: 13.8 ms on an i7-4790K).
+// CG iteration) per tet, matrix-free against assembled, a full implicit step at the default
+// 20 CG iterations (SOFA's published figure for a comparable beam: 13.8 ms on an i7-4790K), the
+// energy query of World's report stage after a step, and the contact stage's local force query.
+//
+// Every timed step starts from the same state: the beam after 20 sagging steps of 10 ms (rotations
+// far from identity, 2 rotation iterations per tet). The model and the state are restored from a
+// snapshot outside the timing before each iteration: a free-running beam of this softness
+// (E = 1e5 Pa, 1 m) swings through large deformations within ~100 steps, and a benchmark whose
+// state drifts with the number of iterations it happens to run measures a different step each time.
 // Run: build-models/bench/models_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
@@ -36,11 +43,18 @@ struct Beam {
       external[i] = masses[i] * Vec3(0, 0, -9.81);
     }
   }
+  IntegrationInput input(double dt = 1e-2) const { return {masses, fixed, external, dt}; }
   /// Sags the beam for a few steps so rotations are not identity.
   void settle(DeformationModel& model, int steps = 20) {
-    for (int s = 0; s < steps; ++s) model.advance(x, v, {masses, fixed, external, 1e-2});
+    for (int s = 0; s < steps; ++s) model.advance(x, v, input());
   }
 };
+
+/// The contact stage's vertices: 8 surface vertices spread along the beam's top.
+const std::vector<int>& probe_vertices() {
+  static const std::vector<int> vertices = {100, 300, 500, 700, 900, 1100, 1300, 1500};
+  return vertices;
+}
 
 void per_tet(benchmark::State& state, const Beam& beam) {
   state.counters["tets"] = beam.mesh->tet_count();
@@ -50,12 +64,20 @@ void per_tet(benchmark::State& state, const Beam& beam) {
                                                         benchmark::Counter::kInvert);
 }
 
+// A full evaluation pass at a new state: rotations (warm-started from the previous step's), forces.
 void BM_CorotationalInternalForces(benchmark::State& state) {
   Beam beam;
   CorotationalFem model(beam.mesh, beam.material, {});
   beam.settle(model);
+  const std::vector<Vec3> x_prev = beam.x;
+  beam.settle(model, 1);
+  model.update_rotations(x_prev);  // warm start: the rotations one step (10 ms) before beam.x
+  const CorotationalFem snapshot = model;
   std::vector<Vec3> f(beam.x.size());
   for (auto _ : state) {
+    state.PauseTiming();
+    model = snapshot;
+    state.ResumeTiming();
     model.internal_forces(beam.x, f);
     benchmark::DoNotOptimize(f.data());
   }
@@ -76,18 +98,49 @@ void BM_TeschnerInternalForces(benchmark::State& state) {
 }
 BENCHMARK(BM_TeschnerInternalForces)->Unit(benchmark::kMicrosecond);
 
+// The contact stage's query after a step, at positions where the 8 vertices were pushed by 1 mm
+// (a contact displacement): exact (rotations re-extracted) and, arg 1, rotations frozen at the step.
 void BM_CorotationalInternalForcesAt8Vertices(benchmark::State& state) {
   Beam beam;
   CorotationalFem model(beam.mesh, beam.material, {});
   beam.settle(model);
-  const std::vector<int> vertices = {100, 300, 500, 700, 900, 1100, 1300, 1500};
-  std::vector<Vec3> f(vertices.size());
+  std::vector<Vec3> x = beam.x;
+  for (int v : probe_vertices()) x[static_cast<size_t>(v)] += Vec3(0.0, 0.0, -1e-3);
+  std::vector<Vec3> f(probe_vertices().size());
+  const bool frozen = state.range(0) == 1;
   for (auto _ : state) {
-    model.internal_forces_at(beam.x, vertices, f);
+    if (frozen) {
+      model.internal_forces_at_frozen_rotations(x, probe_vertices(), f);
+    } else {
+      model.internal_forces_at(x, probe_vertices(), f);
+    }
     benchmark::DoNotOptimize(f.data());
   }
+  state.SetLabel(frozen ? "frozen rotations" : "exact");
 }
-BENCHMARK(BM_CorotationalInternalForcesAt8Vertices)->Unit(benchmark::kNanosecond);
+BENCHMARK(BM_CorotationalInternalForcesAt8Vertices)->Arg(0)->Arg(1)->Unit(benchmark::kNanosecond);
+
+// World's report stage after a step: elastic_energy at the step's result, arg 0, and after the
+// contact stage moved 8 vertices by 1 mm, arg 1.
+void BM_CorotationalEnergyAfterStep(benchmark::State& state) {
+  Beam beam;
+  CorotationalFem model(beam.mesh, beam.material, {});
+  beam.settle(model);
+  if (state.range(0) == 1) {
+    for (int v : probe_vertices()) beam.x[static_cast<size_t>(v)] += Vec3(0.0, 0.0, -1e-3);
+  }
+  const CorotationalFem snapshot = model;
+  double energy = 0.0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    model = snapshot;
+    state.ResumeTiming();
+    energy = model.elastic_energy(beam.x);
+    benchmark::DoNotOptimize(energy);
+  }
+  state.SetLabel(state.range(0) == 1 ? "8 vertices moved" : "unmoved");
+}
+BENCHMARK(BM_CorotationalEnergyAfterStep)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // One K' product: the body of one CG iteration (plus O(n) vector updates).
 void BM_StiffnessProduct(benchmark::State& state) {
@@ -105,7 +158,8 @@ void BM_StiffnessProduct(benchmark::State& state) {
 }
 BENCHMARK(BM_StiffnessProduct)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
-// A full implicit step (rotations, forces, [assembly], preconditioner, 20 CG iterations, update).
+// A full implicit step (rotations, forces, [assembly], preconditioner, 20 CG iterations, update),
+// always the same step: model and state are restored from a snapshot outside the timing.
 void BM_CorotationalImplicitStep(benchmark::State& state) {
   const auto product = static_cast<StiffnessProduct>(state.range(0));
   Beam beam;
@@ -114,9 +168,16 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
   settings.accuracy.solver_tolerance = 1e-12;  // always runs the 20 iterations
   CorotationalFem model(beam.mesh, beam.material, settings, product);
   beam.settle(model);
+  const CorotationalFem snapshot = model;
+  const std::vector<Vec3> x0 = beam.x, v0 = beam.v;
   int iterations = 0;
   for (auto _ : state) {
-    iterations = model.advance(beam.x, beam.v, {beam.masses, beam.fixed, beam.external, 1e-2}).solver_iterations;
+    state.PauseTiming();
+    model = snapshot;
+    std::copy(x0.begin(), x0.end(), beam.x.begin());
+    std::copy(v0.begin(), v0.end(), beam.v.begin());
+    state.ResumeTiming();
+    iterations = model.advance(beam.x, beam.v, beam.input()).solver_iterations;
   }
   per_tet(state, beam);
   state.counters["cg_iterations"] = iterations;
@@ -130,7 +191,7 @@ void BM_TeschnerStep1ms(benchmark::State& state) {
   TeschnerExplicit model(beam.mesh, beam.material, {});
   int substeps = 0;
   for (auto _ : state) {
-    substeps = model.advance(beam.x, beam.v, {beam.masses, beam.fixed, beam.external, 1e-3}).substeps;
+    substeps = model.advance(beam.x, beam.v, beam.input(1e-3)).substeps;
   }
   state.counters["substeps"] = substeps;
 }

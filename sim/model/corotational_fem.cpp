@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "sim/model/rotation_extraction.h"
@@ -13,6 +14,11 @@ namespace {
 constexpr int kRotationIterations = 30;
 constexpr double kRotationTolerance = 1e-11;  ///< rad; makes R^T F symmetric to ~1e-11
 
+/// A query whose positions differ from the cached state in more than 1/kIncrementalFraction of
+/// the vertices re-evaluates every tet instead of the tets around the changed vertices.
+constexpr size_t kIncrementalFraction = 16;
+
+
 // Scatters the columns of H (forces on local vertices 1..3) and their negated sum (vertex 0).
 inline void scatter_tet(const TetIndices& tet, const Mat3& H, std::span<Vec3> f) {
   f[static_cast<size_t>(tet[0])] -= H.col(0) + H.col(1) + H.col(2);
@@ -23,6 +29,22 @@ inline double dot(std::span<const Vec3> a, std::span<const Vec3> b) {
   double s = 0.0;
   for (size_t i = 0; i < a.size(); ++i) s += a[i].dot(b[i]);
   return s;
+}
+
+inline bool same_bits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0; }
+
+/// Local index (0..3) of vertex v in tet, or -1.
+inline int local_index(const TetIndices& tet, int v) {
+  for (int j = 0; j < 4; ++j) {
+    if (tet[static_cast<size_t>(j)] == v) return j;
+  }
+  return -1;
+}
+
+/// Rest shape gradient of local vertex j from Dm^-1: row j-1 for j >= 1, minus their sum for 0.
+inline Vec3 shape_gradient(const Mat3& rest_shape_inverse, int j) {
+  if (j == 0) return -rest_shape_inverse.colwise().sum().transpose();
+  return rest_shape_inverse.row(j - 1).transpose();
 }
 
 }  // namespace
@@ -42,6 +64,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
   volume_ = mesh_->rest_volumes();
   rotations_.assign(nt, Quat::Identity());
   rotated_gradients_.resize(nt);
+  tet_energy_.assign(nt, 0.0);
+  tet_stamp_.assign(nt, 0);
   for (size_t t = 0; t < nt; ++t) {
     const auto& tet = mesh_->tets()[t];
     Mat3 Dm;
@@ -54,27 +78,39 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
   const auto n = static_cast<size_t>(mesh_->vertex_count());
   for (auto* s : {&forces_, &rhs_, &dv_, &r_, &z_, &p_, &q_, &kv_}) s->assign(n, Vec3::Zero());
   preconditioner_.assign(n, Mat3::Zero());
+  state_x_.assign(n, Vec3::Zero());
+  changed_vertices_.reserve(n / kIncrementalFraction + 1);
 
   if (product_ == StiffnessProduct::assembled) {
-    // CSR of 3x3 blocks: each vertex row holds itself and its edge neighbours, ascending.
+    // Upper-triangle CSR of 3x3 blocks: each vertex row holds itself (first) and its edge
+    // neighbours of larger index, ascending.
     block_row_offsets_.assign(n + 1, 0);
     for (size_t v = 0; v < n; ++v) {
-      auto nb = mesh_->vertex_neighbors(static_cast<int>(v));
-      block_row_offsets_[v + 1] = block_row_offsets_[v] + static_cast<int>(nb.size()) + 1;
-      std::vector<int> row(nb.begin(), nb.end());
-      row.push_back(static_cast<int>(v));
+      std::vector<int> row;
+      for (int w : mesh_->vertex_neighbors(static_cast<int>(v))) {
+        if (w > static_cast<int>(v)) row.push_back(w);
+      }
       std::sort(row.begin(), row.end());
+      block_cols_.push_back(static_cast<int>(v));
       block_cols_.insert(block_cols_.end(), row.begin(), row.end());
+      block_row_offsets_[v + 1] = static_cast<int>(block_cols_.size());
     }
     blocks_.assign(block_cols_.size(), Mat3::Zero());
-    tet_blocks_.resize(nt);
+    tet_slots_.resize(nt);
     for (size_t t = 0; t < nt; ++t) {
       const auto& tet = mesh_->tets()[t];
-      for (size_t i = 0; i < 4; ++i) {
-        const auto b = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(tet[i])];
-        const auto e = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(tet[i]) + 1];
-        for (size_t j = 0; j < 4; ++j) {
-          tet_blocks_[t][i * 4 + j] = static_cast<int>(std::lower_bound(b, e, tet[j]) - block_cols_.begin());
+      TetSlots& s = tet_slots_[t];
+      for (std::uint8_t j = 0; j < 4; ++j) s.order[j] = j;
+      std::sort(s.order.begin(), s.order.end(), [&](std::uint8_t a, std::uint8_t b) { return tet[a] < tet[b]; });
+      size_t k = 0;
+      for (size_t a = 0; a < 4; ++a) {
+        for (size_t b = a; b < 4; ++b) {
+          const int row = tet[s.order[a]], col = tet[s.order[b]];
+          const auto first = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(row)];
+          const auto last = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(row) + 1];
+          // The diagonal block leads its row; the neighbours after it are ascending.
+          const auto it = col == row ? first : std::lower_bound(first + 1, last, col);
+          s.blocks[k++] = static_cast<int>(it - block_cols_.begin());
         }
       }
     }
@@ -94,26 +130,116 @@ Mat3 CorotationalFem::deformation_gradient(std::span<const Vec3> x, int tet_inde
 
 // P = 2 mu (F - R) + lambda tr(R^T F - I) R: the gradient of the corotated energy density.
 Mat3 CorotationalFem::first_piola(const Mat3& F, const Mat3& R) const {
-  const double trace = (R.transpose() * F).trace() - 3.0;
+  const double trace = R.cwiseProduct(F).sum() - 3.0;
   return 2.0 * mu_ * (F - R) + lambda_ * trace * R;
 }
 
-void CorotationalFem::update_rotations(std::span<const Vec3> x) {
+Mat3 CorotationalFem::element_forces(size_t t, const Mat3& F, const Mat3& R) const {
+  return -volume_[t] * first_piola(F, R) * rest_shape_inverse_[t].transpose();
+}
+
+void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
+  const TetSlots& s = tet_slots_[t];
+  std::array<Vec3, 4> r;  // rotated shape gradients in ascending global vertex order
+  const Vec3 r0 = -(Rg.col(0) + Rg.col(1) + Rg.col(2));
+  for (size_t a = 0; a < 4; ++a) r[a] = s.order[a] == 0 ? r0 : Vec3(Rg.col(s.order[a] - 1));
+  const double V = volume_[t];
+  // R K_ab R^T = V (mu (r_a . r_b) I + mu r_b r_a^T + lambda r_a r_b^T), stored at (row a, col b).
+  const double Vmu = sign * V * mu_, Vlambda = sign * V * lambda_;
+  size_t k = 0;
+  for (size_t a = 0; a < 4; ++a) {
+    for (size_t b = a; b < 4; ++b) {
+      Mat3& B = blocks_[static_cast<size_t>(s.blocks[k++])];
+      B.noalias() += Vmu * r[b] * r[a].transpose();
+      B.noalias() += Vlambda * r[a] * r[b].transpose();
+      B.diagonal().array() += Vmu * r[a].dot(r[b]);
+    }
+  }
+}
+
+void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
   stiffness_assembled_ = false;
+  assemble = assemble && product_ == StiffnessProduct::assembled;
   std::fill(forces_.begin(), forces_.end(), Vec3::Zero());
+  if (assemble) std::fill(blocks_.begin(), blocks_.end(), Mat3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
+  double energy = 0.0;
   for (size_t t = 0; t < nt; ++t) {
     const Mat3 F = deformation_gradient(x, static_cast<int>(t));
     extract_rotation(F, rotations_[t], kRotationIterations, kRotationTolerance);
     const Mat3 R = rotations_[t].toRotationMatrix();
     const Mat3 DmInvT = rest_shape_inverse_[t].transpose();
-    rotated_gradients_[t] = R * DmInvT;
-    scatter_tet(mesh_->tets()[t], -volume_[t] * first_piola(F, R) * DmInvT, forces_);
+    const Mat3 Rg = R * DmInvT;
+    rotated_gradients_[t] = Rg;
+    const double trace = R.cwiseProduct(F).sum() - 3.0;
+    const Mat3 FmR = F - R;
+    const double e = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
+    tet_energy_[t] = e;
+    energy += e;
+    scatter_tet(mesh_->tets()[t], element_forces(t, F, R), forces_);
+    if (assemble) assemble_tet(t, Rg, 1.0);
   }
+  energy_ = energy;
+  std::copy(x.begin(), x.end(), state_x_.begin());
+  state_valid_ = true;
+  stiffness_assembled_ = assemble;
 }
 
+void CorotationalFem::refresh_state(std::span<const Vec3> x) {
+  const size_t n = x.size();
+  if (!state_valid_) {
+    linearise(x, false);
+    return;
+  }
+  changed_vertices_.clear();
+  const size_t limit = changed_vertices_.capacity();
+  for (size_t i = 0; i < n; ++i) {
+    if (same_bits(x[i], state_x_[i])) continue;
+    if (changed_vertices_.size() == limit) {
+      linearise(x, false);
+      return;
+    }
+    changed_vertices_.push_back(static_cast<int>(i));
+  }
+  if (changed_vertices_.empty()) return;
+  // An assembled K' is kept current tet by tet (old blocks out, new ones in).
+  const bool assembled = stiffness_assembled_;
+  if (++stamp_ == 0) {  // wrapped: clear the marks
+    std::fill(tet_stamp_.begin(), tet_stamp_.end(), 0u);
+    stamp_ = 1;
+  }
+  const std::span<const Vec3> old_x(state_x_);
+  for (int v : changed_vertices_) {
+    for (int ti : mesh_->vertex_tets(v)) {
+      const auto t = static_cast<size_t>(ti);
+      if (tet_stamp_[t] == stamp_) continue;
+      tet_stamp_[t] = stamp_;
+      const auto& tet = mesh_->tets()[t];
+      // Take out the tet's old contribution (recomputed exactly as it was added), add the new one.
+      const Mat3 F_old = deformation_gradient(old_x, ti);
+      const Mat3 R_old = rotations_[t].toRotationMatrix();
+      scatter_tet(tet, -element_forces(t, F_old, R_old), forces_);
+      const Mat3 F = deformation_gradient(x, ti);
+      extract_rotation(F, rotations_[t], kRotationIterations, kRotationTolerance);
+      const Mat3 R = rotations_[t].toRotationMatrix();
+      if (assembled) assemble_tet(t, rotated_gradients_[t], -1.0);
+      rotated_gradients_[t] = R * rest_shape_inverse_[t].transpose();
+      if (assembled) assemble_tet(t, rotated_gradients_[t], 1.0);
+      const double trace = R.cwiseProduct(F).sum() - 3.0;
+      tet_energy_[t] = volume_[t] * (mu_ * (F - R).squaredNorm() + 0.5 * lambda_ * trace * trace);
+      scatter_tet(tet, element_forces(t, F, R), forces_);
+    }
+  }
+  for (int v : changed_vertices_) state_x_[static_cast<size_t>(v)] = x[static_cast<size_t>(v)];
+  double energy = 0.0;
+  for (double e : tet_energy_) energy += e;
+  energy_ = energy;
+}
+
+void CorotationalFem::update_rotations(std::span<const Vec3> x) { linearise(x, false); }
+
 void CorotationalFem::internal_forces(std::span<const Vec3> x, std::span<Vec3> f) {
-  update_rotations(x);
+  refresh_state(x);
   std::copy(forces_.begin(), forces_.end(), f.begin());
 }
 
@@ -127,45 +253,50 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
       const Mat3 F = deformation_gradient(x, t);
       Quat q = rotations_[ts];  // warm start; the stored rotation is left as it is
       extract_rotation(F, q, kRotationIterations, kRotationTolerance);
-      const Mat3 H = -volume_[ts] * first_piola(F, q.toRotationMatrix()) * rest_shape_inverse_[ts].transpose();
-      const auto& tet = mesh_->tets()[ts];
-      if (tet[0] == v) {
-        sum -= H.col(0) + H.col(1) + H.col(2);
-      } else {
-        for (int j = 0; j < 3; ++j) {
-          if (tet[static_cast<size_t>(j + 1)] == v) sum += H.col(j);
-        }
-      }
+      const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
+      sum -= volume_[ts] * (first_piola(F, q.toRotationMatrix()) * g);
+    }
+    f[k] = sum;
+  }
+}
+
+void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
+                                                          std::span<Vec3> f) {
+  for (size_t k = 0; k < vertices.size(); ++k) {
+    const int v = vertices[k];
+    Vec3 sum = Vec3::Zero();
+    for (int t : mesh_->vertex_tets(v)) {
+      const auto ts = static_cast<size_t>(t);
+      const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
+      sum -= volume_[ts] * (first_piola(deformation_gradient(x, t), rotations_[ts].toRotationMatrix()) * g);
     }
     f[k] = sum;
   }
 }
 
 double CorotationalFem::elastic_energy(std::span<const Vec3> x) {
-  double energy = 0.0;
-  const auto nt = static_cast<size_t>(mesh_->tet_count());
-  for (size_t t = 0; t < nt; ++t) {
-    const Mat3 F = deformation_gradient(x, static_cast<int>(t));
-    Quat q = rotations_[t];
-    extract_rotation(F, q, kRotationIterations, kRotationTolerance);
-    const Mat3 R = q.toRotationMatrix();
-    const double trace = (R.transpose() * F).trace() - 3.0;
-    energy += volume_[t] * (mu_ * (F - R).squaredNorm() + 0.5 * lambda_ * trace * trace);
+  refresh_state(x);
+  return energy_;
+}
+
+Vec3 CorotationalFem::symmetric_row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const {
+  const auto first = static_cast<size_t>(block_row_offsets_[i]);
+  const auto last = static_cast<size_t>(block_row_offsets_[i + 1]);
+  const Vec3 pi = p[i];
+  Vec3 sum = blocks_[first] * pi;
+  for (size_t b = first + 1; b < last; ++b) {
+    const auto j = static_cast<size_t>(block_cols_[b]);
+    sum.noalias() += blocks_[b] * p[j];
+    y[j].noalias() += blocks_[b].transpose() * pi;
   }
-  return energy;
+  return sum;
 }
 
 void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const {
   std::fill(y.begin(), y.end(), Vec3::Zero());
   if (stiffness_assembled_) {
     const size_t n = y.size();
-    for (size_t i = 0; i < n; ++i) {
-      Vec3 sum = Vec3::Zero();
-      for (int b = block_row_offsets_[i]; b < block_row_offsets_[i + 1]; ++b) {
-        sum.noalias() += blocks_[static_cast<size_t>(b)] * p[static_cast<size_t>(block_cols_[static_cast<size_t>(b)])];
-      }
-      y[i] = sum;
-    }
+    for (size_t i = 0; i < n; ++i) y[i] += symmetric_row_product(i, p, y);
     return;
   }
   const auto nt = static_cast<size_t>(mesh_->tet_count());
@@ -187,35 +318,34 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
 void CorotationalFem::assemble_stiffness() {
   std::fill(blocks_.begin(), blocks_.end(), Mat3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
-  for (size_t t = 0; t < nt; ++t) {
-    const Mat3& Rg = rotated_gradients_[t];
-    std::array<Vec3, 4> r;
-    r[1] = Rg.col(0);
-    r[2] = Rg.col(1);
-    r[3] = Rg.col(2);
-    r[0] = -(r[1] + r[2] + r[3]);
-    const double V = volume_[t];
-    // R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T); K_ji = K_ij^T.
-    const double Vmu = V * mu_, Vlambda = V * lambda_;
-    for (size_t i = 0; i < 4; ++i) {
-      for (size_t j = i; j < 4; ++j) {
-        Mat3 K = Vmu * r[j] * r[i].transpose() + Vlambda * r[i] * r[j].transpose();
-        K.diagonal().array() += Vmu * r[i].dot(r[j]);
-        blocks_[static_cast<size_t>(tet_blocks_[t][i * 4 + j])] += K;
-        if (j != i) blocks_[static_cast<size_t>(tet_blocks_[t][j * 4 + i])] += K.transpose();
-      }
-    }
-  }
+  for (size_t t = 0; t < nt; ++t) assemble_tet(t, rotated_gradients_[t], 1.0);
   stiffness_assembled_ = true;
 }
 
-void CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale,
-                                      double stiffness_scale, std::span<const double> masses,
-                                      std::span<const char> fixed) const {
-  apply_stiffness(p, y);
-  for (size_t i = 0; i < y.size(); ++i) {
-    y[i] = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * p[i] + stiffness_scale * y[i]);
+double CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale,
+                                        double stiffness_scale, std::span<const double> masses,
+                                        std::span<const char> fixed) const {
+  const size_t n = y.size();
+  double py = 0.0;
+  if (stiffness_assembled_) {
+    // One sweep over the upper triangle: row i is complete (all rows k < i have added their
+    // transposed blocks to y[i]) when its own row is done, so it is finished right there.
+    std::fill(y.begin(), y.end(), Vec3::Zero());
+    for (size_t i = 0; i < n; ++i) {
+      const Vec3 sum = symmetric_row_product(i, p, y);
+      const Vec3& pi = p[i];
+      const Vec3 yi = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * pi + stiffness_scale * (y[i] + sum));
+      y[i] = yi;
+      py += pi.dot(yi);
+    }
+    return py;
   }
+  apply_stiffness(p, y);
+  for (size_t i = 0; i < n; ++i) {
+    y[i] = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * p[i] + stiffness_scale * y[i]);
+    py += p[i].dot(y[i]);
+  }
+  return py;
 }
 
 IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) {
@@ -225,9 +355,14 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   const double mass_scale = 1.0 + h * alpha_;        // M + h alpha M
   const double stiffness_scale = h * (beta_ + h);    // h beta K' + h^2 K'
 
-  // Linearise at x_n: rotations, elastic forces f(x), rotated shape gradients for K'.
-  update_rotations(x);
-  if (product_ == StiffnessProduct::assembled) assemble_stiffness();
+  // Linearise at x_n: rotations, elastic forces f(x), rotated shape gradients for K'. The state
+  // is usually cached already (the previous advance ended by computing it at these positions).
+  const bool cached = state_valid_ && std::equal(x.begin(), x.end(), state_x_.begin(), same_bits);
+  if (!cached) {
+    linearise(x, true);
+  } else if (product_ == StiffnessProduct::assembled && !stiffness_assembled_) {
+    assemble_stiffness();
+  }
 
   // Right-hand side h (f + f_ext - alpha M v) - h (beta + h) K' v, zero at fixed vertices.
   apply_stiffness(v, kv_);
@@ -242,9 +377,7 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   if (product_ == StiffnessProduct::assembled) {
     for (size_t i = 0; i < n; ++i) {
-      const auto b = std::lower_bound(block_cols_.begin() + block_row_offsets_[i],
-                                      block_cols_.begin() + block_row_offsets_[i + 1], static_cast<int>(i));
-      preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(b - block_cols_.begin())];
+      preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(block_row_offsets_[i])];
     }
   }
   for (size_t t = 0; t < nt && product_ == StiffnessProduct::matrix_free; ++t) {
@@ -279,31 +412,39 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
   } else {
     multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
-    for (size_t i = 0; i < n; ++i) r_[i] = rhs_[i] - q_[i];
-    double residual = std::sqrt(dot(r_, r_)) / rhs_norm;
+    double rr = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      r_[i] = rhs_[i] - q_[i];
+      rr += r_[i].squaredNorm();
+    }
+    double residual = std::sqrt(rr) / rhs_norm;
     if (residual > 1.0) {
       // The warm start is worse than zero (e.g. after a contact edit): start from zero instead.
       std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
       std::copy(rhs_.begin(), rhs_.end(), r_.begin());
       residual = 1.0;
     }
-    for (size_t i = 0; i < n; ++i) p_[i] = z_[i] = preconditioner_[i] * r_[i];
-    double rz = dot(r_, z_);
+    double rz = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      p_[i] = z_[i] = preconditioner_[i] * r_[i];
+      rz += r_[i].dot(z_[i]);
+    }
     int it = 0;
     while (residual > accuracy_.solver_tolerance && it < accuracy_.max_solver_iterations) {
-      multiply_system(p_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
-      const double pq = dot(p_, q_);
+      const double pq = multiply_system(p_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
       if (!(pq > 0.0) || !(rz > 0.0)) break;
       const double a = rz / pq;
+      double rr_next = 0.0, rz_next = 0.0;
       for (size_t i = 0; i < n; ++i) {
         dv_[i] += a * p_[i];
         r_[i] -= a * q_[i];
+        z_[i] = preconditioner_[i] * r_[i];
+        rr_next += r_[i].squaredNorm();
+        rz_next += r_[i].dot(z_[i]);
       }
       ++it;
-      residual = std::sqrt(dot(r_, r_)) / rhs_norm;
+      residual = std::sqrt(rr_next) / rhs_norm;
       if (residual <= accuracy_.solver_tolerance) break;
-      for (size_t i = 0; i < n; ++i) z_[i] = preconditioner_[i] * r_[i];
-      const double rz_next = dot(r_, z_);
       const double b = rz_next / rz;
       rz = rz_next;
       for (size_t i = 0; i < n; ++i) p_[i] = z_[i] + b * p_[i];
@@ -314,6 +455,7 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   }
 
   // v+ = v + dv, x+ = x + h v+; fixed vertices stay exactly put.
+  bool finite = true;
   for (size_t i = 0; i < n; ++i) {
     if (in.fixed[i] != 0) {
       v[i].setZero();
@@ -321,6 +463,16 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     }
     v[i] += dv_[i];
     x[i] += h * v[i];
+    finite = finite && x[i].allFinite();
+  }
+  // The linearisation state at x_{n+1}, with K' assembled: the next step's start, the frozen
+  // rotations of the contact stage and the energy report. A non-finite state (a fault World will
+  // undo) is not evaluated.
+  if (finite) {
+    linearise(x, true);
+  } else {
+    state_valid_ = false;
+    stiffness_assembled_ = false;
   }
   return result;
 }

@@ -8,13 +8,23 @@
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
 //   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
 //   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
-// - K' is assembled once per step into 3x3-block CSR rows (by vertex) from the rotated shape
-//   gradients r_j = R g_j: R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T).
-//   The matrix-free product per tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) +
-//   lambda tr(A) I) r_i, is kept as an option; the assembled one was faster at the default 20 CG
-//   iterations (docs/deformation-models.md has the numbers).
+// - K' is assembled once per step into the upper triangle of a symmetric 3x3-block CSR matrix (by
+//   vertex, diagonal block first in each row) from the rotated shape gradients r_j = R g_j:
+//   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
+//   slots of every tet are precomputed (no search during assembly). The matrix-free product per
+//   tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i, is kept as an option.
+// - Linearisation state (session 2): one pass over the tets gives, at positions x, the rotations,
+//   the elastic forces, the per-tet energies and the rotated shape gradients; it is cached together
+//   with a copy of x. `advance` ends by computing that state at its new positions x_{n+1} (so the
+//   next step, the contact stage's frozen-rotation query and the energy report all find it ready);
+//   a query at positions that differ from the cached ones in a few vertices (a contact edit)
+//   re-evaluates only the tets around those vertices (and swaps their blocks in the assembled K'),
+//   and any other query a full pass. Every value
+//   returned is exact for the positions passed in (bitwise comparison); only the warm starts differ.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <vector>
 
 #include "sim/model/deformation_model.h"
@@ -36,19 +46,26 @@ class CorotationalFem final : public DeformationModel {
   ModelKind kind() const override { return ModelKind::corotational_fem; }
   void internal_forces(std::span<const Vec3> x, std::span<Vec3> f) override;
   void internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices, std::span<Vec3> f) override;
+  /// Forces at `vertices` with each element's rotation frozen at the cached linearisation state
+  /// (after `advance`: the positions it produced), f_e = -R K_e (R^T x_e - X_e): no rotation
+  /// extraction. Exact at the cached positions; away from them the error is first order in the
+  /// rotation change (docs/deformation-models.md gives the measured error).
+  void internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
+                                           std::span<Vec3> f) override;
   double elastic_energy(std::span<const Vec3> x) override;
   IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
   ModelAccuracy accuracy() const override { return accuracy_; }
 
-  /// Updates element rotations at x and their rotated shape gradients (the K' of the next solve).
+  /// Updates element rotations at x, their rotated shape gradients (the K' of the next solve), the
+  /// forces and the energy (a full pass; the cached state then belongs to x).
   void update_rotations(std::span<const Vec3> x);
-  /// y = K' p with the rotations of the last update_rotations (fixed vertices not projected); uses
+  /// y = K' p with the rotations of the last linearisation (fixed vertices not projected); uses
   /// the assembled blocks when they are current (inside advance), else the matrix-free product.
   void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
   /// True while the assembled K' matches the current rotations (set by advance, cleared by updates).
   bool stiffness_is_assembled() const { return stiffness_assembled_; }
-  /// Element rotation (from the last full evaluation at some x).
+  /// Element rotation (from the last evaluation of the linearisation state).
   Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
   /// Deformation gradient F = Ds Dm^-1 of a tet at positions x.
   Mat3 deformation_gradient(std::span<const Vec3> x, int tet) const;
@@ -56,9 +73,21 @@ class CorotationalFem final : public DeformationModel {
 
  private:
   Mat3 first_piola(const Mat3& F, const Mat3& R) const;
+  /// -V P Dm^-T: columns are the forces (N) on local vertices 1..3 (vertex 0 gets minus their sum).
+  Mat3 element_forces(size_t t, const Mat3& F, const Mat3& R) const;
+  /// Full pass at x: rotations, forces, energies, rotated gradients [and assembled K'].
+  void linearise(std::span<const Vec3> x, bool assemble);
+  /// Makes the cached state belong to x: nothing if x is the cached positions, the tets around the
+  /// changed vertices if few changed, else a full pass.
+  void refresh_state(std::span<const Vec3> x);
+  /// Adds sign times the tet's R K_e R^T blocks (from its rotated shape gradients) to the assembled K'.
+  void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
   void assemble_stiffness();
-  void multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
-                       std::span<const double> masses, std::span<const char> fixed) const;
+  /// Row i of the upper-triangle K' times p, with the transposed blocks of the row added to y[j > i].
+  Vec3 symmetric_row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
+  double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
+                         std::span<const double> masses, std::span<const char> fixed) const;
 
   TetMeshPtr mesh_;
   double mu_ = 0.0;      ///< Lame mu (Pa)
@@ -72,18 +101,32 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> rest_shape_inverse_;  ///< Dm^-1
   std::vector<double> volume_;            ///< rest volume V (m^3)
 
-  // Changing per tet (warm starts and the frozen linearisation).
+  // Linearisation state at positions state_x_ (valid when state_valid_).
   std::vector<Quat> rotations_;
   std::vector<Mat3> rotated_gradients_;  ///< columns V-free r_1..r_3 = R Dm^-T columns
+  std::vector<double> tet_energy_;       ///< elastic energy per tet (J)
+  std::vector<Vec3> forces_;             ///< elastic forces (N)
+  double energy_ = 0.0;                  ///< sum of tet_energy_ (J)
+  std::vector<Vec3> state_x_;            ///< the positions (m) all of the above belong to
+  bool state_valid_ = false;
+  std::vector<int> changed_vertices_;    ///< scratch of refresh_state (capacity reserved)
+  std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state
+  unsigned stamp_ = 0;
 
-  // Assembled K' (3x3 blocks, CSR by vertex rows, diagonal included).
+  // Assembled K': upper triangle of 3x3 blocks, CSR by vertex rows, diagonal block first per row.
   std::vector<int> block_row_offsets_, block_cols_;
-  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
+  /// Per tet: local vertices in ascending global index, then the block slots of the pairs
+  /// (order[a], order[b]) for a <= b in the order (0,0),(0,1),(0,2),(0,3),(1,1),(1,2),(1,3),(2,2),(2,3),(3,3).
+  struct TetSlots {
+    std::array<std::uint8_t, 4> order;
+    std::array<int, 10> blocks;
+  };
+  std::vector<TetSlots> tet_slots_;
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
 
   // Per-step scratch, sized once.
-  std::vector<Vec3> forces_, rhs_, dv_, r_, z_, p_, q_, kv_;
+  std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
   std::vector<Mat3> preconditioner_;
 };
 

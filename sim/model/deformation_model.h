@@ -66,6 +66,15 @@ class DeformationModel {
   virtual void internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
                                   std::span<Vec3> f) = 0;
 
+  /// A cheaper internal_forces_at for small displacements from the state the last `advance` left
+  /// (the contact stage's binary search): models with element rotations may keep them frozen at
+  /// that state (first-order error in the rotation change, see docs/deformation-models.md). The
+  /// default is the exact internal_forces_at.
+  virtual void internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
+                                                   std::span<Vec3> f) {
+    internal_forces_at(x, vertices, f);
+  }
+
   /// Elastic energy (J) at positions x; internal_forces is its negative gradient.
   virtual double elastic_energy(std::span<const Vec3> x) = 0;
 
