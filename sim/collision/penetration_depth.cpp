@@ -21,20 +21,41 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
       s.bvh.refit(cb.positions);
       ++s.refits;
     }
+    // Vertex normals only where a hit needs them (vertex_normal), not for the whole surface.
     s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
-    cb.mesh->vertex_normals(cb.positions, s.vertex_normals);
+    s.normal_call.resize(static_cast<size_t>(cb.mesh->vertex_count()), 0);
     s.built_in_call = call_;
   }
   return s;
 }
 
-Vec3 PenetrationDepthSolver::smoothed_normal(const Surface& surface, const SurfacePoint& hit) const {
+const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
+  Vec3& n = surface.vertex_normals[static_cast<size_t>(v)];
+  if (surface.normal_call[static_cast<size_t>(v)] != call_) {
+    // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
+    // ascending triangle order (vertex_surface_triangles is sorted), then normalised.
+    const TetMesh& mesh = *surface.bvh.mesh();
+    const std::span<const Vec3> x = surface.bvh.positions();
+    n.setZero();
+    for (int t : mesh.vertex_surface_triangles(v)) {
+      const auto& tri = mesh.surface_triangles()[static_cast<size_t>(t)];
+      const Vec3& a = x[static_cast<size_t>(tri[0])];
+      n += (x[static_cast<size_t>(tri[1])] - a).cross(x[static_cast<size_t>(tri[2])] - a);
+    }
+    const double len = n.norm();
+    if (len > 0.0) n /= len;
+    surface.normal_call[static_cast<size_t>(v)] = call_;
+  }
+  return n;
+}
+
+Vec3 PenetrationDepthSolver::smoothed_normal(Surface& surface, const SurfacePoint& hit) {
   // Heidelberger 2004, section 4.2: barycentric interpolation of the hit face's vertex normals.
   const TetMesh& mesh = *surface.bvh.mesh();
   const auto& tri = mesh.surface_triangles()[static_cast<size_t>(hit.triangle)];
   Vec3 n = Vec3::Zero();
   for (int k = 0; k < 3; ++k) {
-    n += hit.barycentric[k] * surface.vertex_normals[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+    n += hit.barycentric[k] * vertex_normal(surface, tri[static_cast<size_t>(k)]);
   }
   const double len = n.norm();
   if (len > 1e-12) return n / len;
@@ -88,7 +109,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
   const TetMesh& mesh = *body.mesh;
   const std::span<const Vec3> x = body.positions;
   const bool self = first.body == first.penetrated_body;
-  const Surface& surface = surface_of(bodies, first.penetrated_body);
+  Surface& surface = surface_of(bodies, first.penetrated_body);
   const int count = static_cast<int>(group.size());
   // Weights 1/|.|^2 are capped where two points (nearly) coincide.
   const double min_distance_squared = std::pow(1e-9 * std::max(mesh.mean_edge_length(), 1e-300), 2);
@@ -115,6 +136,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
   };
 
   layer_.assign(static_cast<size_t>(count), -1);
+  hint_.assign(static_cast<size_t>(count), -1);
   frontier_.clear();
 
   // Border points (Heidelberger 2004, eq. (2) and (3)).
@@ -129,6 +151,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     const Vec3& p = x[static_cast<size_t>(c.vertex)];
     double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
     Vec3 direction_sum = Vec3::Zero(), nearest_normal = Vec3::Zero();
+    int nearest_triangle = -1;
     // Outgoing edges to non-colliding neighbours q. Keep the intersection nearest q: the first
     // hit of the segment from q towards p (t in [0, 1]); one traversal for all of p's edges.
     fan_origins_.clear();
@@ -154,6 +177,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       if (d2 < nearest_d2) {
         nearest_d2 = d2;
         nearest_normal = normal;
+        nearest_triangle = best.triangle;
       }
     }
     if (weight_sum == 0.0) continue;  // all edges missed: an inner point after all
@@ -167,6 +191,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     }
     r.depth_source = DepthSource::border;
     r.layer = 0;
+    hint_[static_cast<size_t>(k)] = nearest_triangle;
     layer_[static_cast<size_t>(k)] = 0;
     frontier_.push_back(k);
     ++stats_.border_points;
@@ -190,6 +215,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       const Vec3& p = x[static_cast<size_t>(r.vertex)];
       double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
       Vec3 direction_sum = Vec3::Zero(), nearest_direction = Vec3::Zero();
+      int nearest_hint = -1;
       for (int q : mesh.vertex_neighbors(r.vertex)) {
         const int s = slot_of(q);
         if (s < 0 || layer_[static_cast<size_t>(s)] < 0 || layer_[static_cast<size_t>(s)] >= layer) continue;
@@ -203,6 +229,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
         if (d2 < nearest_d2) {
           nearest_d2 = d2;
           nearest_direction = nb.penetration_direction;
+          nearest_hint = hint_[static_cast<size_t>(s)];
         }
       }
       assert(weight_sum > 0.0);
@@ -216,6 +243,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       }
       r.depth_source = DepthSource::propagated;
       r.layer = layer;
+      hint_[static_cast<size_t>(k)] = nearest_hint;
       ++stats_.propagated_points;
       stats_.max_layer = std::max(stats_.max_layer, layer);
     }
@@ -247,7 +275,16 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       ++stats_.clamped_negative_depths;
     }
     // Contact triangle: first hit of the ray x + t r, t >= 0; else the nearest surface triangle.
-    const auto hit = find_contact_triangle(surface.bvh, p, r.penetration_direction, exclude);
+    // The triangle its nearest edge hit (or nearest inner neighbour's) crossed usually is the
+    // answer: its ray parameter, plus a rounding margin, bounds the search (same answer, fewer nodes).
+    double t_bound = std::numeric_limits<double>::max();
+    const int hint = hint_[static_cast<size_t>(k)];
+    double t_hint = 0.0;
+    if (hint >= 0 && r.penetration_direction.squaredNorm() > 0.5 &&
+        surface.bvh.ray_hits_triangle(p, r.penetration_direction, hint, t_hint)) {
+      t_bound = t_hint + 1e-9 * (t_hint + p.cwiseAbs().maxCoeff() + surface.bvh.mesh()->mean_edge_length());
+    }
+    const auto hit = find_contact_triangle(surface.bvh, p, r.penetration_direction, exclude, t_bound);
     if (!hit) {
       ++stats_.dropped;
       continue;

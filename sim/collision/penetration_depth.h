@@ -61,7 +61,8 @@ class PenetrationDepthSolver {
   /// The penetrated body's surface at this step: hierarchy and smoothed vertex normals.
   struct Surface {
     SurfaceBvh bvh;
-    std::vector<Vec3> vertex_normals;
+    std::vector<Vec3> vertex_normals;         ///< valid where normal_call equals the call counter
+    std::vector<std::uint64_t> normal_call;   ///< per vertex: call counter value of its normal
     std::uint64_t built_in_call = 0;  ///< call counter value when last built or refitted
     int refits = 0;                   ///< refits since the last full build
   };
@@ -69,7 +70,8 @@ class PenetrationDepthSolver {
   Surface& surface_of(std::span<const CollisionBody> bodies, int body);
   void solve_group(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
                    std::span<const int> group);
-  Vec3 smoothed_normal(const Surface& surface, const SurfacePoint& hit) const;
+  Vec3 smoothed_normal(Surface& surface, const SurfacePoint& hit);
+  const Vec3& vertex_normal(Surface& surface, int v);
 
   PenetrationDepthOptions options_;
   PenetrationDepthStats stats_;
@@ -83,6 +85,7 @@ class PenetrationDepthSolver {
   std::uint32_t group_stamp_ = 0;
   std::vector<int> layer_;                    ///< per group entry: -1 unprocessed, else layer
   std::vector<int> frontier_, next_;          ///< propagation fronts (group entry indices)
+  std::vector<int> hint_;                     ///< per group entry: a surface triangle its ray likely hits
   std::vector<Vec3> fan_origins_;             ///< a border point's non-colliding neighbours (positions)
   std::vector<int> fan_exclude_;              ///< their vertex indices in self-collision, else -1
   std::vector<SurfacePoint> fan_hits_;        ///< first hit of each edge from the neighbour

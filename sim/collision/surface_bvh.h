@@ -55,6 +55,18 @@ class SurfaceBvh {
                           std::span<const int> exclude_origins, std::span<SurfacePoint> hits,
                           std::span<char> found) const;
 
+  /// Does origin + t dir, t >= 0, cross surface triangle `triangle`? Its parameter in t (a cheap
+  /// upper bound for first_ray_hit's t_max when the answer is likely that triangle).
+  bool ray_hits_triangle(const Vec3& origin, const Vec3& dir, int triangle, double& t) const {
+    TriangleHit h;
+    if (!ray_triangle_intersection(origin, dir, corner(triangle, 0), corner(triangle, 1), corner(triangle, 2), 0.0,
+                                   std::numeric_limits<double>::max(), h)) {
+      return false;
+    }
+    t = h.t;
+    return true;
+  }
+
   /// Closest point of the surface to p; false only if no triangle is eligible. Triangles containing
   /// vertex `exclude` (-1: none) are skipped.
   bool nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest) const;
