@@ -21,6 +21,7 @@
 #include <sstream>
 #include <vector>
 
+#include "apps/side_by_side_frames.h"
 #include "interaction/clock.h"
 #include "interaction/scene/scene_runner.h"
 #include "interaction/step_time_stats.h"
@@ -38,6 +39,7 @@ struct Sample {
   double max_penetration = 0.0;   ///< m, before response
   double residual_overlap = 0.0;  ///< m, after response
   int colliding_vertices = 0;
+  int sleeping_bodies = 0;
   double stage_ms[kStepStageCount] = {};
   double step_ms = 0.0;
 };
@@ -85,7 +87,7 @@ double gravitational_potential(const World& world, double h_ref) {
   for (const Body* body : world.bodies()) {
     if (body == nullptr || body->is_kinematic()) continue;
     for (int v = 0; v < body->vertex_count(); ++v) {
-      if (body->is_immovable(v)) continue;
+      if (body->fixed[static_cast<size_t>(v)] != 0) continue;
       e += body->masses[static_cast<size_t>(v)] * g_norm *
            (body->positions[static_cast<size_t>(v)].dot(up) - h_ref);
     }
@@ -98,7 +100,7 @@ double kinetic_energy(const World& world) {
   for (const Body* body : world.bodies()) {
     if (body == nullptr || body->is_kinematic()) continue;
     for (int v = 0; v < body->vertex_count(); ++v) {
-      if (body->is_immovable(v)) continue;
+      if (body->fixed[static_cast<size_t>(v)] != 0) continue;
       e +=
           0.5 * body->masses[static_cast<size_t>(v)] * body->velocities[static_cast<size_t>(v)].squaredNorm();
     }
@@ -118,7 +120,20 @@ double lowest_height(const World& world) {
   return std::isfinite(h) ? h : 0.0;
 }
 
-MethodRun run_method(const Scene& base, ContactMethod method, long steps, std::ostream* log) {
+// Side 0 (left panel) keeps its frames, side 1 renders them next to the kept ones.
+void frame(SideBySideFrames* frames, int side, const World& world) {
+  if (frames == nullptr) return;
+  const long index = frames->due(side, world.time());
+  if (index < 0) return;
+  if (side == 0) {
+    frames->keep_left(world, index);
+  } else {
+    frames->write_right(world, index);
+  }
+}
+
+MethodRun run_method(const Scene& base, ContactMethod method, long steps, std::ostream* log,
+                     SideBySideFrames* frames, int side) {
   Scene scene = base;
   scene.world.contact.method = method;
   SceneRunner runner(scene);
@@ -134,6 +149,7 @@ MethodRun run_method(const Scene& base, ContactMethod method, long steps, std::o
   first.kinetic = kinetic0;
   first.potential = gravitational0;
   run.samples.push_back(first);
+  frame(frames, side, world);
 
   SteadyClock clock;
   ClockStageProfiler profiler(clock);
@@ -151,10 +167,12 @@ MethodRun run_method(const Scene& base, ContactMethod method, long steps, std::o
     s.max_penetration = r.max_penetration_before;
     s.residual_overlap = r.max_residual_overlap;
     s.colliding_vertices = r.colliding_vertices;
+    s.sleeping_bodies = r.sleeping_bodies;
     for (int k = 0; k < kStepStageCount; ++k)
       s.stage_ms[k] = profiler.seconds(static_cast<StepStage>(k)) * 1e3;
     s.step_ms = profiler.total() * 1e3;
     run.samples.push_back(s);
+    frame(frames, side, world);
     if (log != nullptr && (i + 1) % progress_every == 0) {
       *log << "pliant experiment: " << run.method << " " << (i + 1) << "/" << steps << " steps\n"
            << std::flush;
@@ -168,14 +186,14 @@ void write_steps_csv(const MethodRun& run, const std::filesystem::path& file) {
   std::ostringstream out;
   out << std::setprecision(9)
       << "time,kinetic_pct,potential_pct,kinetic,potential,max_penetration_before,max_residual_overlap,"
-         "colliding_vertices,step_ms,integrate_ms,detect_ms,depth_ms,respond_ms,report_ms\n";
+         "colliding_vertices,step_ms,integrate_ms,detect_ms,depth_ms,respond_ms,report_ms,sleeping_bodies\n";
   const double e0 = run.initial_energy > 0.0 ? run.initial_energy : 1.0;
   for (const Sample& s : run.samples) {
     out << s.time << ',' << 100.0 * s.kinetic / e0 << ',' << 100.0 * s.potential / e0 << ',' << s.kinetic
         << ',' << s.potential << ',' << s.max_penetration << ',' << s.residual_overlap << ','
         << s.colliding_vertices << ',' << s.step_ms;
     for (double ms : s.stage_ms) out << ',' << ms;
-    out << '\n';
+    out << ',' << s.sleeping_bodies << '\n';
   }
   write_file_atomically(file.string(), out.str());
 }
@@ -271,7 +289,7 @@ nlohmann::json method_summary(const MethodRun& run) {
   };
 }
 
-// gnuplot script for DIR/energy.png and DIR/penetration.png; run if gnuplot is installed.
+// gnuplot script for DIR/energy.png, DIR/penetration.png and DIR/stages.png; run if gnuplot is installed.
 bool write_plots(const std::filesystem::path& dir, const std::string& title, std::ostream* log) {
   std::ostringstream gp;
   gp << "# Made by `pliant experiment`; rerun with: gnuplot plots.gp (from this folder)\n"
@@ -292,7 +310,15 @@ bool write_plots(const std::filesystem::path& dir, const std::string& title, std
      << "plot 'surface/steps.csv' using 1:($6*1000) with lines lw 2 title 'contact surface: before "
         "response', "
         "'surface/steps.csv' using 1:($7*1000) with lines lw 2 title 'contact surface: after response', "
-        "'penalty/steps.csv' using 1:($6*1000) with lines lw 2 title 'penalty'\n";
+        "'penalty/steps.csv' using 1:($6*1000) with lines lw 2 title 'penalty'\n"
+     << "set terminal pngcairo noenhanced size 800,500 font ',10'\nset output 'stages.png'\n"
+     << "set title '" << title << ": time per stage and sleeping bodies (contact surface run)'\n"
+     << "set xlabel 'time (s)'\nset ylabel 'wall time per step (ms)'\nset y2label 'sleeping bodies'\n"
+     << "set y2tics\nset ytics nomirror\nset key top right\n"
+     << "plot 'surface/steps.csv' using 1:9 with lines lw 2 title 'step', "
+        "'' using 1:10 with lines title 'integrate', '' using 1:11 with lines title 'detect', "
+        "'' using 1:12 with lines title 'depth', '' using 1:13 with lines title 'respond', "
+        "'' using 1:15 axes x1y2 with lines lw 2 dt 2 title 'sleeping bodies (right axis)'\n";
   write_file_atomically((dir / "plots.gp").string(), gp.str());
   const std::string command = "cd '" + dir.string() + "' && gnuplot plots.gp > plots.log 2>&1";
   const int rc = std::system(command.c_str());
@@ -349,7 +375,7 @@ std::string report_markdown(const nlohmann::json& summary) {
         "run).\n"
      << "Resting residual-overlap ratio surface / penalty: " << fmt(summary["residual_overlap_ratio"])
      << "; time-to-rest ratio: " << fmt(summary["rest_time_ratio"]) << ".\n\n";
-  if (summary["plots"].get<bool>()) md << "![energy](energy.png)\n\n![penetration](penetration.png)\n";
+  if (summary["plots"].get<bool>()) md << "![energy](energy.png)\n\n![penetration](penetration.png)\n\n![stages](stages.png)\n";
   for (const char* m : {"surface", "penalty"}) {
     if (!summary["methods"][m]["fault"].is_null()) {
       md << "\n**" << m << " stopped:** " << summary["methods"][m]["fault"].get<std::string>() << "\n";
@@ -410,12 +436,22 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
   }
 
   std::ostream* progress = options.quiet ? nullptr : &log;
+  std::unique_ptr<SideBySideFrames> frames;
+  if (options.frames) {
+    SideBySideSettings fs;
+    fs.folder = out / "frames";
+    fs.frame_rate = options.frame_rate;
+    frames = std::make_unique<SideBySideFrames>(scene, fs, progress);
+    if (!frames->enabled()) frames.reset();
+  }
   std::map<std::string, MethodRun> runs;
+  int side = 0;
   for (ContactMethod method : {ContactMethod::contact_surface, ContactMethod::penalty}) {
-    MethodRun run = run_method(scene, method, steps, progress);
+    MethodRun run = run_method(scene, method, steps, progress, frames.get(), side++);
     write_steps_csv(run, out / run.method / "steps.csv");
     runs.emplace(run.method, std::move(run));
   }
+  if (frames) frames->finish();
   const bool plots = write_plots(out, scene.name, progress);
 
   // Sizes, counting every body (kinematic ones too), as the paper does.
@@ -470,6 +506,8 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
                                                methods["penalty"]["time_to_rest_s"].get<double>())
                               : nlohmann::json(nullptr)},
       {"plots", plots},
+      {"frames", frames ? frames->written() : 0},
+      {"frame_rate", options.frame_rate},
   };
   write_file_atomically((out / "summary.json").string(), summary.dump(2) + "\n");
   write_file_atomically((out / "report.md").string(), report_markdown(summary));
@@ -479,7 +517,7 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
         << fmt(methods["penalty"]["response_ms"]["mean"]) << "; max residual overlap mm surface "
         << fmt(methods["surface"]["max_residual_overlap_m"], 1e3) << ", penalty "
         << fmt(methods["penalty"]["max_residual_overlap_m"], 1e3) << "; wrote " << out.string()
-        << "/{summary.json,report.md,surface/,penalty/" << (plots ? ",energy.png,penetration.png" : "")
+        << "/{summary.json,report.md,surface/,penalty/" << (plots ? ",energy.png,penetration.png,stages.png" : "")
         << "}\n";
   }
   for (const auto& [name, run] : runs) {

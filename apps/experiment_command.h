@@ -1,7 +1,7 @@
 // `pliant experiment NAME --out DIR`: one of the paper's four experiments (Spillmann & Teschner,
 // Sec. 5: three_cubes, sphere_squeeze, fruit_dish, membrane_stack) run with both contact methods,
 // the contact surface and the penalty baseline, from the same scene file. Writes
-// DIR/<method>/steps.csv, DIR/energy.png (kinetic and potential energy in % of the initial
+// DIR/<method>/steps.csv, DIR/frames/frame_NNNNNN.png (both methods side by side), DIR/energy.png (kinetic and potential energy in % of the initial
 // energy, as the paper's Fig. 10), DIR/penetration.png, DIR/summary.json and DIR/report.md with
 // the measured timings beside the paper's. Choices: docs/experiments.md.
 #pragma once
@@ -18,6 +18,8 @@ struct ExperimentOptions {
   std::string out = "out";         ///< output folder
   std::optional<double> duration;  ///< s, overrides the scene's duration
   bool quiet = false;
+  bool frames = true;              ///< side-by-side PNGs in DIR/frames (when the renderer is built)
+  double frame_rate = 30.0;        ///< frames per simulated second
 };
 
 /// Runs the experiment. Returns 0 on success, 1 if a method met a step it could not recover

@@ -64,8 +64,14 @@ int main(int argc, char** argv) {
   auto* experiment_duration_opt =
       experiment_cmd->add_option("--duration", experiment_duration, "Simulated time (s)")->check(CLI::PositiveNumber);
   experiment_cmd->add_flag("--quiet", experiment.quiet, "Print nothing on success");
+  bool experiment_no_frames = false;
+  experiment_cmd->add_flag("--no-frames", experiment_no_frames, "Write no side-by-side frames");
+  experiment_cmd->add_option("--frame-rate", experiment.frame_rate, "Side-by-side frames per simulated second")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   experiment_cmd->callback([&] {
     if (experiment_duration_opt->count() > 0) experiment.duration = experiment_duration;
+    experiment.frames = !experiment_no_frames;
     exit_code = pliant::run_experiment(experiment, std::cout);
   });
 
@@ -111,6 +117,9 @@ int main(int argc, char** argv) {
   tradeoff_cmd->add_option("--solver", tradeoff.solver_iterations, "CG iteration caps to try")->check(CLI::Range(1, 10000));
   tradeoff_cmd->add_option("--dt", tradeoff.dt_factors, "dt factors (times the scene's dt) to try")
       ->check(CLI::PositiveNumber);
+  tradeoff_cmd->add_option("--resolution", tradeoff.resolution_factors,
+                           "Cell-count factors for generated box/membrane meshes (1 alone: no resolution sweep)")
+      ->check(CLI::Range(0.05, 8.0));
   tradeoff_cmd->add_flag("--quiet", tradeoff.quiet, "Print nothing on success");
   tradeoff_cmd->callback([&] { exit_code = pliant::run_tradeoff(tradeoff, std::cout); });
 

@@ -6,7 +6,14 @@
 // over time (reference linearly interpolated to each run's tick times), energy drift. Cost: median
 // wall time per tick (SteadyClock around SceneRunner::tick; the ClockStageProfiler's stage sum is
 // written too), and per scene step, i.e. scaled by scene dt / dt so that runs at other dt compare
-// at equal simulated time.
+// at equal simulated time. Mesh resolution: the scene's generated box and membrane meshes are
+// re-meshed with their cell counts times a factor (JSON rewritten before parsing; fixed regions are
+// boxes and planes in world coordinates, so they follow). Those runs use the scene's default
+// settings and are compared with a run at the largest factor and the reference's settings; surface
+// vertices no longer match by index, so the reference's deformed positions are resampled at each
+// run's surface vertices through the reference mesh's rest tetrahedra (barycentric interpolation).
+// Sleeping (scene "sleep") is off in every run: bodies falling asleep at different moments would
+// add their own differences to the ones being measured.
 #include "apps/tradeoff_command.h"
 
 #include <algorithm>
@@ -15,9 +22,11 @@
 #include <filesystem>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "interaction/clock.h"
+#include "interaction/json_reader.h"
 #include "interaction/scene/scene.h"
 #include "interaction/scene/scene_runner.h"
 #include "interaction/scene/stage_profiler.h"
@@ -32,6 +41,7 @@ struct Setting {
   int binary_search_iterations = 4;
   int solver_iterations = 20;
   double dt_factor = 1.0;
+  double resolution_factor = 1.0;  ///< cell counts of generated box/membrane meshes x this
 };
 
 /// Everything a run records for the comparison.
@@ -49,6 +59,8 @@ struct RunRecord {
   std::vector<double> times;                ///< s, end of each tick
   std::vector<std::vector<Vec3>> forces;    ///< per tick, one force per instrument (N)
   std::vector<std::vector<Vec3>> surfaces;  ///< per deformable body, surface vertex positions at the end
+  std::vector<TetMeshPtr> meshes;           ///< per deformable body
+  std::vector<std::vector<Vec3>> positions; ///< per deformable body, all vertex positions at the end
 };
 
 double median(std::vector<double> v) {
@@ -65,7 +77,32 @@ Scene configured(const Scene& base, const Setting& s) {
   scene.time_step = base.time_step * s.dt_factor;
   scene.output.frames = false;
   scene.output.vtu = false;
+  scene.world.sleep.enabled = false;
   return scene;
+}
+
+/// The scene file with the cell counts of its generated box and membrane meshes times `factor`
+/// (at least one cell per axis). `remeshed` counts the bodies changed.
+Scene remeshed_scene(const std::string& path, double factor, int* remeshed) {
+  nlohmann::json root = load_json_file(path);
+  *remeshed = 0;
+  if (root.is_object() && root.contains("bodies") && root["bodies"].is_array()) {
+    for (auto& body : root["bodies"]) {
+      if (!body.is_object() || !body.contains("mesh") || !body["mesh"].is_object()) continue;
+      auto& mesh = body["mesh"];
+      const std::string shape = mesh.value("shape", std::string());
+      if (shape != "box" && shape != "membrane") continue;
+      nlohmann::json cells = mesh.contains("cells") ? mesh["cells"] : nlohmann::json::array({8, 8, 1});
+      if (!cells.is_array() || cells.size() != 3) continue;  // parse_scene reports it
+      for (auto& c : cells) {
+        if (c.is_number()) c = std::max(1L, std::lround(c.get<double>() * factor));
+      }
+      mesh["cells"] = cells;
+      ++*remeshed;
+    }
+  }
+  const std::string base = std::filesystem::path(path).parent_path().string();
+  return parse_scene(root, path, base.empty() ? "." : base);
 }
 
 RunRecord run_setting(const Scene& base, const Setting& s, double end_time) {
@@ -110,8 +147,52 @@ RunRecord run_setting(const Scene& base, const Setting& s, double end_time) {
     std::vector<Vec3> surface;
     for (int v : b.mesh->surface_vertices()) surface.push_back(b.positions[static_cast<size_t>(v)]);
     rec.surfaces.push_back(std::move(surface));
+    rec.meshes.push_back(b.mesh);
+    rec.positions.push_back(b.positions);
   }
   return rec;
+}
+
+/// The reference body's deformed position at rest point `p` (mesh coordinates): barycentric
+/// interpolation in the rest tet that contains p (the nearest one by barycentric violation if p
+/// lies just outside the mesh).
+Vec3 resample(const TetMesh& mesh, const std::vector<Vec3>& deformed, const Vec3& p) {
+  const auto& rest = mesh.rest_positions();
+  double best_violation = std::numeric_limits<double>::infinity();
+  Vec3 best = Vec3::Zero();
+  for (const auto& t : mesh.tets()) {
+    const Vec3& a = rest[static_cast<size_t>(t[0])];
+    Eigen::Matrix3d m;
+    m.col(0) = rest[static_cast<size_t>(t[1])] - a;
+    m.col(1) = rest[static_cast<size_t>(t[2])] - a;
+    m.col(2) = rest[static_cast<size_t>(t[3])] - a;
+    const Vec3 l = m.inverse() * (p - a);
+    const double b[4] = {1.0 - l.sum(), l.x(), l.y(), l.z()};
+    double violation = 0.0;
+    for (double w : b) violation = std::max(violation, -w);
+    if (violation < best_violation) {
+      best_violation = violation;
+      best = Vec3::Zero();
+      for (int k = 0; k < 4; ++k) best += b[k] * deformed[static_cast<size_t>(t[k])];
+      if (violation <= 1e-12) break;
+    }
+  }
+  return best;
+}
+
+/// RMS distance at the end between a run's surface vertices and the reference resampled there (m).
+double resampled_surface_rms(const RunRecord& run, const RunRecord& ref) {
+  double sum = 0.0;
+  size_t n = 0;
+  for (size_t b = 0; b < run.meshes.size() && b < ref.meshes.size(); ++b) {
+    const TetMesh& mesh = *run.meshes[b];
+    for (int v : mesh.surface_vertices()) {
+      const Vec3 at_ref = resample(*ref.meshes[b], ref.positions[b], mesh.rest_positions()[static_cast<size_t>(v)]);
+      sum += (run.positions[b][static_cast<size_t>(v)] - at_ref).squaredNorm();
+      ++n;
+    }
+  }
+  return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
 /// RMS distance between the surface vertices of a run and the reference at the end (m).
@@ -232,6 +313,8 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
     return 1;
   }
   const double ref_force = rms_magnitude(ref);
+  double resolution_reference_energy = 0.0, resolution_reference_force = 0.0;
+  std::optional<Setting> resolution_reference;
 
   std::vector<Setting> settings;
   for (double dt : options.dt_factors) {
@@ -256,28 +339,98 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
     }
     runs.push_back(std::move(r));
   }
-  const std::vector<char> front_pos = pareto(cost, pos_err, valid);
-  const std::vector<char> front_force = pareto(cost, force_err, valid);
+  std::vector<char> front_pos = pareto(cost, pos_err, valid);
+  std::vector<char> front_force = pareto(cost, force_err, valid);
+  std::vector<const char*> compared_with(settings.size(), "settings");
+  std::vector<long> deformable_vertices(settings.size(), 0);
+  auto count_vertices = [](const RunRecord& r) {
+    long n = 0;
+    for (const auto& p : r.positions) n += static_cast<long>(p.size());
+    return n;
+  };
+  for (size_t i = 0; i < runs.size(); ++i) deformable_vertices[i] = count_vertices(runs[i]);
+
+  // Mesh resolution: the scene's default settings at each factor against the finest factor run
+  // at the reference's settings; surfaces compared by resampling (see the design note).
+  const bool sweep_resolution =
+      options.resolution_factors.size() > 1 ||
+      (options.resolution_factors.size() == 1 && options.resolution_factors[0] != 1.0);
+  if (sweep_resolution) {
+    const double finest = *std::max_element(options.resolution_factors.begin(), options.resolution_factors.end());
+    int remeshed = 0;
+    const Scene finest_scene = remeshed_scene(options.scene, finest, &remeshed);
+    if (remeshed == 0) {
+      if (!options.quiet) log << "tradeoff: the scene has no generated box or membrane mesh; no resolution sweep\n";
+    } else {
+      Setting res_reference = reference;
+      res_reference.resolution_factor = finest;
+      const RunRecord res_ref = run_setting(finest_scene, res_reference, end_time);
+      if (res_ref.failed) {
+        log << "tradeoff: the finest-resolution reference failed: " << res_ref.fault << "; no resolution sweep\n";
+      } else {
+        std::vector<double> rcost, rpos, rforce;
+        std::vector<char> rvalid;
+        for (double f : options.resolution_factors) {
+          Setting s = scene_default;
+          s.resolution_factor = f;
+          const Scene scene = remeshed_scene(options.scene, f, &remeshed);
+          RunRecord r = run_setting(scene, s, end_time);
+          rcost.push_back(r.median_tick_s * 1e3 * base.time_step / r.dt);
+          rpos.push_back(r.failed ? std::numeric_limits<double>::infinity() : resampled_surface_rms(r, res_ref));
+          rforce.push_back(r.failed ? std::numeric_limits<double>::infinity() : force_rms(r, res_ref));
+          rvalid.push_back(r.failed ? 0 : 1);
+          if (!options.quiet) {
+            log << "  mesh x" << f << " (" << count_vertices(r) << " deformable vertices): "
+                << (r.failed ? "FAILED " + r.fault : "") << std::setprecision(3) << " surface " << rpos.back() * 1e3
+                << " mm, force " << rforce.back() << " N, " << rcost.back() << " ms/scene step\n";
+          }
+          settings.push_back(s);
+          deformable_vertices.push_back(count_vertices(r));
+          compared_with.push_back("resolution");
+          runs.push_back(std::move(r));
+        }
+        const std::vector<char> rfront_pos = pareto(rcost, rpos, rvalid);
+        const std::vector<char> rfront_force = pareto(rcost, rforce, rvalid);
+        for (size_t k = 0; k < rcost.size(); ++k) {
+          cost.push_back(rcost[k]);
+          pos_err.push_back(rpos[k]);
+          force_err.push_back(rforce[k]);
+          valid.push_back(rvalid[k]);
+          front_pos.push_back(rfront_pos[k]);
+          front_force.push_back(rfront_force[k]);
+        }
+        resolution_reference_energy = res_ref.energy_drift;
+        resolution_reference_force = rms_magnitude(res_ref);
+        resolution_reference = res_reference;
+      }
+    }
+  }
 
   std::ostringstream csv;
   csv << std::setprecision(6);
   csv << "binary_search_iterations,solver_iterations,dt_factor,dt_s,steps,failed,retried_steps,"
          "max_residual_overlap_mm,mean_residual_overlap_mm,surface_rms_error_mm,force_rms_error_N,"
          "force_rms_reference_N,energy_drift_J,energy_drift_error_J,median_ms_per_step,median_stage_ms_per_step,"
-         "ms_per_scene_step,pareto_surface,pareto_force,is_default,is_reference\n";
+         "ms_per_scene_step,pareto_surface,pareto_force,is_default,is_reference,resolution_factor,deformable_vertices,"
+         "compared_with\n";
   for (size_t i = 0; i < settings.size(); ++i) {
     const Setting& s = settings[i];
     const RunRecord& r = runs[i];
+    const bool by_resolution = std::string(compared_with[i]) == "resolution";
     auto same = [&](const Setting& o) {
       return o.binary_search_iterations == s.binary_search_iterations && o.solver_iterations == s.solver_iterations &&
-             o.dt_factor == s.dt_factor;
+             o.dt_factor == s.dt_factor && o.resolution_factor == s.resolution_factor;
     };
+    const double row_ref_force = by_resolution ? resolution_reference_force : ref_force;
+    const double row_ref_energy = by_resolution ? resolution_reference_energy : ref.energy_drift;
+    const bool row_is_reference = by_resolution ? (resolution_reference && same(*resolution_reference)) : same(reference);
     csv << s.binary_search_iterations << ',' << s.solver_iterations << ',' << s.dt_factor << ',' << r.dt << ','
         << r.steps << ',' << (r.failed ? 1 : 0) << ',' << r.retried << ',' << r.max_overlap * 1e3 << ','
-        << r.mean_overlap * 1e3 << ',' << pos_err[i] * 1e3 << ',' << force_err[i] << ',' << ref_force << ','
-        << r.energy_drift << ',' << std::abs(r.energy_drift - ref.energy_drift) << ',' << r.median_tick_s * 1e3
+        << r.mean_overlap * 1e3 << ',' << pos_err[i] * 1e3 << ',' << force_err[i] << ',' << row_ref_force << ','
+        << r.energy_drift << ',' << std::abs(r.energy_drift - row_ref_energy) << ',' << r.median_tick_s * 1e3
         << ',' << r.median_stage_s * 1e3 << ',' << cost[i] << ',' << int(front_pos[i]) << ',' << int(front_force[i])
-        << ',' << (same(scene_default) ? 1 : 0) << ',' << (same(reference) ? 1 : 0) << '\n';
+        << ',' << (!by_resolution && same(scene_default) ? 1 : 0) << ',' << (row_is_reference ? 1 : 0) << ','
+        << s.resolution_factor << ',' << deformable_vertices[i] << ',' << compared_with[i] << '\n';
   }
   const std::filesystem::path csv_path = out / "tradeoff.csv";
   write_file_atomically(csv_path.string(), csv.str());

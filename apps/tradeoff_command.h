@@ -1,5 +1,5 @@
 // `pliant tradeoff SCENE --out DIR [--steps N]`: the speed-accuracy trade (issue 8, item 4). Sweeps
-// binary-search iterations, solver (CG) iterations and dt, measures each setting against a
+// binary-search iterations, solver (CG) iterations, dt and mesh resolution, measures each setting against a
 // reference run at the highest settings, and writes DIR/tradeoff.csv and DIR/tradeoff.png
 // (Pareto plot via scripts/plot_tradeoff.sh). Metrics and choices: docs/tradeoff.md.
 #pragma once
@@ -17,6 +17,9 @@ struct TradeoffOptions {
   std::vector<int> binary_search_iterations{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
   std::vector<int> solver_iterations{5, 10, 20, 40};
   std::vector<double> dt_factors{0.5, 1.0, 2.0};  ///< times the scene's dt
+  /// Cell-count factors for the scene's generated box and membrane meshes (1 = as in the scene);
+  /// run at the scene's default settings against a reference at the largest factor.
+  std::vector<double> resolution_factors{0.5, 1.0, 2.0};
   bool plot = true;   ///< run scripts/plot_tradeoff.sh when gnuplot is available
   bool quiet = false;
 };

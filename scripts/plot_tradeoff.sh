@@ -11,11 +11,15 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 # Columns: 10 surface_rms_error_mm, 11 force_rms_error_N, 17 ms_per_scene_step, 18/19 Pareto flags,
 # 20 is_default, 6 failed. Zero errors (the reference itself) cannot sit on a log axis: left out.
-awk -F, 'NR > 1 && $6 == 0 && $10 > 0' "$csv" > "$tmp/all_surface.csv"
-awk -F, 'NR > 1 && $6 == 0 && $11 > 0' "$csv" > "$tmp/all_force.csv"
-awk -F, 'NR > 1 && $18 == 1 && $10 > 0' "$csv" | sort -t, -k17,17g > "$tmp/front_surface.csv"
-awk -F, 'NR > 1 && $19 == 1 && $11 > 0' "$csv" | sort -t, -k17,17g > "$tmp/front_force.csv"
+# Column 24 compared_with: "settings" rows (binary search, CG, dt) against the reference run,
+# "resolution" rows (22 resolution_factor) against the finest-mesh reference; older CSVs have no
+# column 24 and are all settings rows.
+awk -F, 'NR > 1 && $24 != "resolution" && $6 == 0 && $10 > 0' "$csv" > "$tmp/all_surface.csv"
+awk -F, 'NR > 1 && $24 != "resolution" && $6 == 0 && $11 > 0' "$csv" > "$tmp/all_force.csv"
+awk -F, 'NR > 1 && $24 != "resolution" && $18 == 1 && $10 > 0' "$csv" | sort -t, -k17,17g > "$tmp/front_surface.csv"
+awk -F, 'NR > 1 && $24 != "resolution" && $19 == 1 && $11 > 0' "$csv" | sort -t, -k17,17g > "$tmp/front_force.csv"
 awk -F, 'NR > 1 && $20 == 1' "$csv" > "$tmp/default.csv"
+awk -F, 'NR > 1 && $24 == "resolution" && $6 == 0' "$csv" | sort -t, -k22,22g > "$tmp/resolution.csv"
 # One panel per error; a panel with no non-zero error says so instead of plotting nothing.
 panel() {  # column, ylabel, title, all, front
   local col=$1 ylabel=$2 ptitle=$3 all=$4 front=$5
@@ -25,7 +29,13 @@ panel() {  # column, ylabel, title, all, front
     echo "set logscale y"
     echo "plot \"$all\" using 17:$col with points pt 7 ps 0.6 lc rgb \"#999999\" title \"all settings\", \\"
     echo "     \"$front\" using 17:$col with linespoints pt 7 lw 2 lc rgb \"#d62728\" title \"Pareto front\", \\"
-    echo "     \"$tmp/default.csv\" using 17:(\$$col > 0 ? \$$col : 1/0) with points pt 5 ps 1.6 lc rgb \"#1f77b4\" title \"scene default\""
+    if [[ -s $tmp/resolution.csv ]]; then
+      echo "     \"$tmp/default.csv\" using 17:(\$$col > 0 ? \$$col : 1/0) with points pt 5 ps 1.6 lc rgb \"#1f77b4\" title \"scene default\", \\"
+      echo "     \"$tmp/resolution.csv\" using 17:(\$$col > 0 ? \$$col : 1/0) with linespoints pt 9 ps 1.4 lw 2 lc rgb \"#2ca02c\" title \"mesh resolution factor (vs finest mesh)\", \\"
+      echo "     \"$tmp/resolution.csv\" using 17:(\$$col > 0 ? \$$col : 1/0):(sprintf(\"x%g\", \$22)) with labels offset 1.5,0.8 notitle"
+    else
+      echo "     \"$tmp/default.csv\" using 17:(\$$col > 0 ? \$$col : 1/0) with points pt 5 ps 1.6 lc rgb \"#1f77b4\" title \"scene default\""
+    fi
   else
     echo "unset logscale y"
     echo "set label 1 \"no non-zero error: no instrument, or every setting equals the reference\" at graph 0.5, graph 0.5 center"

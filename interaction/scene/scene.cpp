@@ -10,6 +10,9 @@
 namespace pliant {
 namespace {
 
+// Whether scenes without a "sleep" object let bodies sleep.
+constexpr bool kSceneSleepByDefault = true;
+
 Pose read_pose(const JsonReader& j) {
   Pose pose;
   pose.translation = j.vec3_or("position", Vec3::Zero());
@@ -154,6 +157,17 @@ ContactSettings read_contact(const JsonReader& j) {
   return c;
 }
 
+// "sleep": bodies at rest sleep (sim/sleep/sleep_settings.h); on in scenes unless disabled.
+SleepSettings read_sleep(const JsonReader& j) {
+  j.expect_keys({"enabled", "speed", "time", "wake_margin"});
+  SleepSettings s;
+  s.enabled = j.boolean_or("enabled", true);
+  s.speed = j.positive_number_or("speed", s.speed);
+  s.time = j.positive_number_or("time", s.time);
+  s.wake_margin = j.non_negative_number_or("wake_margin", s.wake_margin);
+  return s;
+}
+
 SceneCamera read_camera(const JsonReader& j) {
   j.expect_keys({"position", "target", "up", "fov_deg"});
   SceneCamera c;
@@ -195,7 +209,7 @@ ContactMethod contact_method_from_string(const std::string& name) {
 Scene parse_scene(const nlohmann::json& root_json, const std::string& source, const std::string& base_dir) {
   const JsonReader root(root_json, source);
   root.expect_keys({"name", "description", "time_step", "duration", "gravity", "bodies", "instruments", "script",
-                    "loop", "contact", "collision", "camera", "output"});
+                    "loop", "contact", "collision", "camera", "output", "sleep"});
   Scene scene;
   scene.file = source;
   scene.name = root.string_or("name", std::filesystem::path(source).stem().string());
@@ -203,6 +217,8 @@ Scene parse_scene(const nlohmann::json& root_json, const std::string& source, co
   scene.duration = root.positive_number_or("duration", scene.duration);
   scene.world.gravity = root.vec3_or("gravity", scene.world.gravity);
   if (auto c = root.find("contact")) scene.world.contact = read_contact(*c);
+  scene.world.sleep.enabled = kSceneSleepByDefault;
+  if (auto s = root.find("sleep")) scene.world.sleep = read_sleep(*s);
 
   const JsonReader bodies = root.at("bodies");
   std::set<std::string> names;

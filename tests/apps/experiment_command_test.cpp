@@ -3,10 +3,12 @@
 // penalty springs, and bad input -> exit code 2. Skipped when the pliant binary is not built.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 
 #include "support/run_cli.h"
 
@@ -67,6 +69,39 @@ TEST(ExperimentCommand, SphereSqueezeWritesBothMethodsAndTheSummary) {
   EXPECT_GT(penalty["resting_residual_overlap_m"].get<double>(), 1e-5);
   EXPECT_GT(surface["initial_energy_J"].get<double>(), 0.0);
   EXPECT_DOUBLE_EQ(surface["initial_energy_J"].get<double>(), penalty["initial_energy_J"].get<double>());
+}
+
+// PNG width and height from the IHDR chunk (bytes 16-23, big-endian).
+std::pair<int, int> png_size(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  unsigned char h[24] = {};
+  in.read(reinterpret_cast<char*>(h), sizeof(h));
+  if (!in || h[1] != 'P' || h[2] != 'N' || h[3] != 'G') return {-1, -1};
+  auto be32 = [&](int at) { return (h[at] << 24) | (h[at + 1] << 16) | (h[at + 2] << 8) | h[at + 3]; };
+  return {be32(16), be32(20)};
+}
+
+TEST(ExperimentCommand, SideBySideFramesOnePerFrameIntervalTwoPanelsWide) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("frames");
+  const std::string scene = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/sphere_squeeze.json";
+  const CliResult r = run_cli("experiment " + scene + " --out " + out.string() + " --duration 0.1 --frame-rate 50");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  if (r.output.find("PLIANT_RENDER=OFF") != std::string::npos) GTEST_SKIP() << "built without the renderer";
+  // Frames at t = 0, 0.02, ..., 0.1 s: six, numbered from 0, each two 480 x 360 panels side by side.
+  long pngs = 0;
+  for (const auto& entry : fs::directory_iterator(out / "frames")) pngs += entry.path().extension() == ".png";
+  EXPECT_EQ(pngs, 6);
+  for (int k = 0; k < 6; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "frame_%06d.png", k);
+    EXPECT_EQ(png_size(out / "frames" / name), std::make_pair(960, 360)) << name;
+  }
+  EXPECT_EQ(read_json(out / "summary.json")["frames"], 6);
+  // --no-frames writes none.
+  const fs::path none = scratch("no_frames");
+  ASSERT_EQ(run_cli("experiment " + scene + " --out " + none.string() + " --duration 0.01 --no-frames --quiet").exit_code, 0);
+  EXPECT_FALSE(fs::exists(none / "frames"));
 }
 
 TEST(BenchCommand, OneRowPerSceneAndFrictionVariant) {
