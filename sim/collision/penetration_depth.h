@@ -4,14 +4,17 @@
 // Design note. Colliding vertices are grouped by (colliding body, penetrated body); each group is
 // solved on its own, so "colliding" below means "inside the same penetrated body". Per group:
 // border points (a colliding vertex with a non-colliding tet-edge neighbour) intersect each such
-// edge with the penetrated body's surface (a SurfaceBvh, built once per step per penetrated body)
-// and keep the hit nearest the non-colliding end; depth and direction are the 1/|x_i - p|^2
-// weighted means of Heidelberger eq. (2)/(3) with smoothed (interpolated vertex) normals. Inner
+// edge with the penetrated body's surface (a SurfaceBvh, refitted once per step per penetrated
+// body) and keep the hit nearest the non-colliding end (one fan query per border point for all its
+// edges); depth and direction are the 1/|x_i - p|^2 weighted means of Heidelberger eq. (2)/(3)
+// with smoothed (interpolated vertex) normals. Inner
 // points get theirs layer by layer from points of earlier layers only (eq. (4)/(5)). Points no
 // layer reaches (a body enclosed by another, or a colliding island without border) take depth and
 // direction from the nearest point of the penetrated surface (beyond the paper). The contact
 // triangle is the first surface triangle hit by the ray x + t r, t >= 0; if the direction vanished
-// or the ray misses, the nearest surface triangle. Scratch buffers are members and only grow.
+// or the ray misses, the nearest surface triangle; its search is bounded by the ray's parameter on
+// the triangle of the point's nearest edge hit (a hint: same answer, fewer nodes). Vertex normals
+// are computed on demand per step. Scratch buffers are members and only grow.
 #pragma once
 
 #include <cstdint>

@@ -8,6 +8,8 @@
 // leaf, nodes in depth-first order (left child follows its parent). Queries keep an explicit stack
 // of fixed size (the median split bounds the depth by log2 of the triangle count). Ties between
 // equally near triangles go to the smaller triangle index, so results do not depend on the tree.
+// The fan query (all edges ending at one border point) visits every node whose box meets the
+// fan's box instead of ordering by entry parameter: it keeps the same minimum per edge.
 #pragma once
 
 #include <limits>
