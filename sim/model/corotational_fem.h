@@ -8,8 +8,8 @@
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
 //   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
 //   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
-// - K' is assembled once per step into the upper triangle of a symmetric 3x3-block CSR matrix (by
-//   vertex, diagonal block first in each row) from the rotated shape gradients r_j = R g_j:
+// - K' is assembled once per step into 3x3-block CSR rows (by vertex, both triangles) from the
+//   rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
 //   slots of every tet are precomputed (no search during assembly). The matrix-free product per
 //   tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i, is kept as an option.
@@ -24,7 +24,6 @@
 #pragma once
 
 #include <array>
-#include <cstdint>
 #include <vector>
 
 #include "sim/model/deformation_model.h"
@@ -83,8 +82,8 @@ class CorotationalFem final : public DeformationModel {
   /// Adds sign times the tet's R K_e R^T blocks (from its rotated shape gradients) to the assembled K'.
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
   void assemble_stiffness();
-  /// Row i of the upper-triangle K' times p, with the transposed blocks of the row added to y[j > i].
-  Vec3 symmetric_row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// Row i of the assembled K' times p.
+  Vec3 row_product(size_t i, std::span<const Vec3> p) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
@@ -113,15 +112,10 @@ class CorotationalFem final : public DeformationModel {
   std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state
   unsigned stamp_ = 0;
 
-  // Assembled K': upper triangle of 3x3 blocks, CSR by vertex rows, diagonal block first per row.
+  // Assembled K' (3x3 blocks, CSR by vertex rows, diagonal included).
   std::vector<int> block_row_offsets_, block_cols_;
-  /// Per tet: local vertices in ascending global index, then the block slots of the pairs
-  /// (order[a], order[b]) for a <= b in the order (0,0),(0,1),(0,2),(0,3),(1,1),(1,2),(1,3),(2,2),(2,3),(3,3).
-  struct TetSlots {
-    std::array<std::uint8_t, 4> order;
-    std::array<int, 10> blocks;
-  };
-  std::vector<TetSlots> tet_slots_;
+  std::vector<int> diagonal_blocks_;             ///< block index of (i, i)
+  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
 
