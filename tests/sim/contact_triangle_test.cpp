@@ -103,6 +103,103 @@ TEST(SurfaceBvh, RayAndNearestQueriesMatchBruteForce) {
   EXPECT_GT(hits, 300);
 }
 
+// Brute force: smallest (t, triangle) with t in [0, 1] on the segment o -> e, skipping triangles
+// holding exclude_a or exclude_b; -1 if none.
+int brute_first_segment_hit(const TetMesh& m, std::span<const Vec3> x, const Vec3& o, const Vec3& e, int exclude_a,
+                            int exclude_b, double& t_best) {
+  int best = -1;
+  t_best = std::numeric_limits<double>::infinity();
+  for (int t = 0; t < m.surface_triangle_count(); ++t) {
+    const auto& tri = m.surface_triangles()[static_cast<size_t>(t)];
+    if (std::find(tri.begin(), tri.end(), exclude_a) != tri.end() ||
+        std::find(tri.begin(), tri.end(), exclude_b) != tri.end()) {
+      continue;
+    }
+    TriangleHit h;
+    if (ray_triangle_intersection(o, e - o, corner(m, x, t, 0), corner(m, x, t, 1), corner(m, x, t, 2), 0.0, 1.0, h) &&
+        h.t < t_best) {
+      t_best = h.t;
+      best = t;
+    }
+  }
+  return best;
+}
+
+TEST(SurfaceBvh, FanOfSegmentsMatchesSingleQueriesAndBruteForce) {
+  // Fans of 1..40 segments (more than one chunk) ending at points near the surface of a jittered
+  // block, with and without excluded vertices: each segment's first hit equals first_ray_hit's
+  // (bit for bit) and brute force's smallest t on [0, 1].
+  const auto mesh = make_box_mesh({Vec3(1.0, 0.6, 0.4), 10, 6, 4});
+  const auto x = jittered(*mesh, 0.02, 11);
+  SurfaceBvh bvh;
+  bvh.build(*mesh, x);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.6, 0.6), r(-0.15, 0.15);
+  std::uniform_int_distribution<int> count(1, 40), vertex(0, mesh->vertex_count() - 1);
+  int hits = 0, segments = 0;
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 end(u(rng), 0.6 * u(rng), 0.4 * u(rng));
+    const int m = count(rng);
+    const bool exclude = i % 3 == 0;
+    const int exclude_end = exclude ? vertex(rng) : -1;
+    std::vector<Vec3> origins;
+    std::vector<int> exclude_origins;
+    for (int k = 0; k < m; ++k) {
+      origins.push_back(end + Vec3(r(rng), r(rng), r(rng)));
+      exclude_origins.push_back(exclude ? vertex(rng) : -1);
+    }
+    std::vector<SurfacePoint> fan(static_cast<size_t>(m));
+    std::vector<char> found(static_cast<size_t>(m));
+    bvh.first_segment_hits(end, exclude_end, origins, exclude_origins, fan, found);
+    for (size_t k = 0; k < origins.size(); ++k) {
+      ++segments;
+      SurfacePoint single;
+      const bool single_found = bvh.first_ray_hit(origins[k], end - origins[k], exclude_origins[k], single, 1.0, exclude_end);
+      double t_brute = 0.0;
+      const int brute = brute_first_segment_hit(*mesh, x, origins[k], end, exclude_origins[k], exclude_end, t_brute);
+      ASSERT_EQ(found[k] != 0, single_found) << i << " " << k;
+      ASSERT_EQ(single_found, brute >= 0) << i << " " << k;
+      if (!single_found) continue;
+      ++hits;
+      EXPECT_EQ(fan[k].triangle, single.triangle);
+      EXPECT_EQ(fan[k].t, single.t);
+      EXPECT_EQ(fan[k].barycentric, single.barycentric);
+      EXPECT_EQ(fan[k].point, single.point);
+      EXPECT_EQ(fan[k].t, t_brute);
+      expect_on_triangle(*mesh, x, fan[k].triangle, fan[k].barycentric, fan[k].point);
+    }
+  }
+  EXPECT_GT(segments, 3000);
+  EXPECT_GT(hits, 500);
+}
+
+TEST(ContactTriangle, BoundedSearchGivesTheUnboundedAnswer) {
+  // find_contact_triangle with a bound at or above the first hit, or a bound below every hit (it
+  // then searches again unbounded), returns exactly what the unbounded search returns.
+  const auto mesh = make_box_mesh({Vec3(1.0, 0.6, 0.4), 10, 6, 4});
+  const auto x = jittered(*mesh, 0.02, 13);
+  SurfaceBvh bvh;
+  bvh.build(*mesh, x);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-0.45, 0.45), scale(0.0, 3.0);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3 o(u(rng), 0.6 * u(rng), 0.4 * u(rng));  // inside the block: the ray always hits
+    const Vec3 d = Vec3(g(rng), g(rng), g(rng)).normalized();
+    const auto free = find_contact_triangle(bvh, o, d, -1);
+    ASSERT_TRUE(free.has_value());
+    ASSERT_EQ(free->source, ContactTriangleSource::ray);
+    for (const double bound : {free->point.t, free->point.t * (1.0 + scale(rng)), 0.5 * free->point.t}) {
+      const auto bounded = find_contact_triangle(bvh, o, d, -1, bound);
+      ASSERT_TRUE(bounded.has_value());
+      EXPECT_EQ(bounded->source, free->source);
+      EXPECT_EQ(bounded->point.triangle, free->point.triangle) << i << " " << bound;
+      EXPECT_EQ(bounded->point.t, free->point.t);
+      EXPECT_EQ(bounded->point.barycentric, free->point.barycentric);
+    }
+  }
+}
+
 TEST(ContactTriangle, FirstRayHitLiesOnTheTriangleAndDepthVectorLandsOnIt) {
   // A ball pressed into a block: planar penetrated face, so x + d r is the ray's hit exactly.
   const auto cube = make_box_mesh({Vec3(0.6, 0.6, 0.6), 6, 6, 6});
