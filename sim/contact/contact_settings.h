@@ -26,8 +26,9 @@ struct ContactSettings {
   /// contact-surface response's normal contact forces of a step acts as external force through the
   /// next integration, so a dent the search made is held instead of springing back; the velocity
   /// update supplies the rest (accumulated impulse clamped at zero: never adhesive). 0 disables it.
-  /// 0.8: 1.0 winds up on stiff bodies (measured: a block bounces on an incline), 0.9 too.
-  double held_force_fraction = 0.8;
+  /// Measured value 0.8 (1.0 and 0.9 wind up on stiff bodies: a block bounces on an incline). Off by
+  /// default until the interaction tests it changes are understood (docs/contact-surface.md).
+  double held_force_fraction = 0.0;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

@@ -237,7 +237,7 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
       if (!std::isfinite(restoring)) restoring = 0.0;
       magnitude = std::min(magnitude, restoring);
     }
-    if (magnitude <= 0.0) continue;
+    if (!(magnitude > 0.0) || !std::isfinite(magnitude)) continue;  // nothing, or a faulty step's
     const Vec3 f = magnitude * impulses_[c].normal / impulses_[c].normal_magnitude;  // on the colliding vertex
     HeldForces& m = held_[static_cast<size_t>(contact.body)];
     HeldForces& n = held_[static_cast<size_t>(contact.penetrated_body)];

@@ -54,7 +54,7 @@ Ledger run_ledger(const Case& c, int steps, bool print, bool warm_start = false)
   for (Body* b : world.bodies()) x0.push_back(b->positions);
 
   ContactSettings contact = world_settings(c).contact;
-  contact.held_force_fraction = warm_start ? ContactSettings{}.held_force_fraction : 0.0;
+  contact.held_force_fraction = warm_start ? kHeldForceFraction : 0.0;
   ContactSurfaceResponse response;
   Ledger ledger;
   ledger.scale = scene.scale;
@@ -108,8 +108,9 @@ Ledger run_ledger(const Case& c, int steps, bool print, bool warm_start = false)
     colliding_lower.assign(world.body(scene.lower).positions.size(), 0);
     colliding_upper.assign(world.body(scene.upper).positions.size(), 0);
     for (const VertexContact& vc : world.contacts()) {
-      (static_cast<uint32_t>(vc.body) == scene.lower.index ? colliding_lower : colliding_upper)
-          [static_cast<size_t>(vc.vertex)] = 1;
+      (static_cast<uint32_t>(vc.body) == scene.lower.index
+           ? colliding_lower
+           : colliding_upper)[static_cast<size_t>(vc.vertex)] = 1;
     }
     if (!world.contacts().empty()) {
       StepReport rr;
@@ -131,22 +132,26 @@ Ledger run_ledger(const Case& c, int steps, bool print, bool warm_start = false)
       for (const VertexContact& vc : world.contacts()) pen = std::max(pen, vc.penetration_depth);
       std::printf("%3d max depth %.2e m  KE %.2e EL %.3e GR %.3e J\n", i, pen, next.kinetic, next.elastic,
                   next.gravitational);
-      std::printf("%3d nc=%3zu E=%.3e | int %+.2e (KE %+.2e EL %+.2e GR %+.2e) | search %+.2e (EL %+.2e GR %+.2e) | vel %+.2e\n",
-                  i, world.contacts().size(), next.total(), d_int, after_integrate.kinetic - end.kinetic,
-                  after_integrate.elastic - end.elastic, after_integrate.gravitational - end.gravitational, d_search,
-                  after_search.elastic - after_integrate.elastic,
-                  after_search.gravitational - after_integrate.gravitational, d_vel);
+      std::printf(
+          "%3d nc=%3zu E=%.3e | int %+.2e (KE %+.2e EL %+.2e GR %+.2e) | search %+.2e (EL %+.2e GR %+.2e) | "
+          "vel %+.2e\n",
+          i, world.contacts().size(), next.total(), d_int, after_integrate.kinetic - end.kinetic,
+          after_integrate.elastic - end.elastic, after_integrate.gravitational - end.gravitational, d_search,
+          after_search.elastic - after_integrate.elastic,
+          after_search.gravitational - after_integrate.gravitational, d_vel);
     }
     end = next;
   }
   if (print) {
-    std::printf("%s, held forces %s: max E %.3e J (scale %.3e J)\n  added: integrate %.3e, search %.3e, velocity %.3e\n"
-                "  net: integrate %.3e, search %.3e (elastic %.3e, gravity %.3e), velocity %.3e\n"
-                "  search with only: upper %.3e, lower %.3e, colliding %.3e, triangle-only %.3e\n",
-                c.name.c_str(), warm_start ? "on" : "off", ledger.max_total, ledger.scale, ledger.integrate_added, ledger.search_added,
-                ledger.velocity_added, ledger.integrate_net, ledger.search_net, ledger.search_elastic,
-                ledger.search_gravitational, ledger.velocity_net, ledger.search_upper, ledger.search_lower,
-                ledger.search_colliding, ledger.search_triangle);
+    std::printf(
+        "%s, held forces %s: max E %.3e J (scale %.3e J)\n  added: integrate %.3e, search %.3e, velocity "
+        "%.3e\n"
+        "  net: integrate %.3e, search %.3e (elastic %.3e, gravity %.3e), velocity %.3e\n"
+        "  search with only: upper %.3e, lower %.3e, colliding %.3e, triangle-only %.3e\n",
+        c.name.c_str(), warm_start ? "on" : "off", ledger.max_total, ledger.scale, ledger.integrate_added,
+        ledger.search_added, ledger.velocity_added, ledger.integrate_net, ledger.search_net,
+        ledger.search_elastic, ledger.search_gravitational, ledger.velocity_net, ledger.search_upper,
+        ledger.search_lower, ledger.search_colliding, ledger.search_triangle);
   }
   return ledger;
 }

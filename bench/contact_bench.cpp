@@ -1,0 +1,70 @@
+// Contact response time (issue 5 target: the contact-surface response <= 2x the penalty response's
+// time) on the probe scene (assets/scenes/probe.json: a 10 mm sphere-tipped probe in a 1,000-vertex
+// nu 0.45 tissue block). Each benchmark runs the scene to t = 1.0 s (pressed 10 mm in and held),
+// then times only the respond stage of each further step (manual time: the stage profiler), for
+// 300 steps. Counters: colliding vertices per step, respond time per colliding vertex (us).
+//
+//   build-stab/bench/contact_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <filesystem>
+
+#include "interaction/scene/scene_runner.h"
+
+namespace pliant {
+namespace {
+
+/// Times the respond stage of each step.
+class RespondTimer final : public StepProfiler {
+ public:
+  void begin(StepStage stage) override {
+    if (stage == StepStage::respond) start_ = std::chrono::steady_clock::now();
+  }
+  void end(StepStage stage) override {
+    if (stage == StepStage::respond)
+      seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  double seconds = 0.0;  ///< s, accumulated
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+enum class Variant { surface, surface_without_held_forces, penalty };
+
+void BM_ProbeRespond(benchmark::State& state) {
+  const auto variant = static_cast<Variant>(state.range(0));
+  const auto file = std::filesystem::path(__FILE__).parent_path().parent_path() / "assets/scenes/probe.json";
+  Scene scene = load_scene(file.string());
+  scene.world.contact.method =
+      variant == Variant::penalty ? ContactMethod::penalty : ContactMethod::contact_surface;
+  scene.world.contact.held_force_fraction = variant == Variant::surface ? 0.8 : 0.0;
+  scene.world.compute_energy = false;
+  SceneRunner runner(scene);
+  while (runner.time() < 1.0) runner.tick();
+  double colliding = 0.0;
+  long steps = 0;
+  for (auto _ : state) {
+    RespondTimer timer;
+    runner.tick(&timer);
+    state.SetIterationTime(timer.seconds);
+    colliding += runner.report().colliding_vertices;
+    ++steps;
+  }
+  state.counters["colliding"] = colliding / static_cast<double>(steps);
+  state.counters["us_per_colliding_vertex"] =
+      benchmark::Counter(colliding, benchmark::Counter::kIsRate | benchmark::Counter::kInvert,
+                         benchmark::Counter::OneK::kIs1000);
+}
+BENCHMARK(BM_ProbeRespond)
+    ->Arg(static_cast<int>(Variant::surface))
+    ->Arg(static_cast<int>(Variant::surface_without_held_forces))
+    ->Arg(static_cast<int>(Variant::penalty))
+    ->ArgNames({"variant"})
+    ->UseManualTime()
+    ->Iterations(300)
+    ->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace pliant
