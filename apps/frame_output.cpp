@@ -4,6 +4,7 @@
 #include <sstream>
 
 #ifdef PLIANT_HAS_RENDER
+#include "apps/scene_camera.h"
 #include "render/frame_recorder.h"
 #endif
 
@@ -27,14 +28,7 @@ FrameOutput::FrameOutput(const Scene& scene, const std::filesystem::path& out, s
     settings.width = scene.output.width;
     settings.height = scene.output.height;
     settings.asynchronous = false;  // offline runs are deterministic; FrameOutput::write picks the cadence
-    if (scene.camera) {
-      Camera camera;
-      camera.position = scene.camera->position;
-      camera.target = scene.camera->target;
-      camera.up = scene.camera->up;
-      camera.fov_y_deg = scene.camera->fov_deg;
-      settings.view.camera = camera;
-    }
+    if (scene.camera) settings.view.camera = render_camera(*scene.camera);
     try {
       png_ = std::make_unique<Png>(std::move(settings));
       png_->options.field = ScalarField::displacement;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #ifdef PLIANT_HAS_RENDER
+#include "apps/scene_camera.h"
 #include "render/bitmap_font.h"
 #include "render/offscreen_renderer.h"
 #include "render/png_writer.h"
@@ -67,14 +68,7 @@ SideBySideFrames::SideBySideFrames(const Scene& scene, SideBySideSettings settin
   try {
     std::filesystem::create_directories(settings.folder);
     impl_ = std::make_unique<Impl>(std::move(settings));
-    if (scene.camera) {
-      Camera camera;
-      camera.position = scene.camera->position;
-      camera.target = scene.camera->target;
-      camera.up = scene.camera->up;
-      camera.fov_y_deg = scene.camera->fov_deg;
-      impl_->view.camera = camera;
-    }
+    if (scene.camera) impl_->view.camera = render_camera(*scene.camera);
     impl_->options.field = ScalarField::displacement;
     impl_->options.reaction_arrows = false;
   } catch (const std::exception& e) {
