@@ -169,9 +169,9 @@ int run_scene(const RunOptions& options, std::ostream& log) {
     // With instruments, the haptic thread runs beside the physics loop (scene_haptics.h); each
     // physics step refreshes its models.
     std::unique_ptr<SceneHaptics> haptics;
-    if (options.haptics && !runner.instance().instruments.empty()) {
+    if (options.haptics && scene.haptics.enabled && !runner.instance().instruments.empty()) {
       const double expected = static_cast<double>(steps) * std::max(dt, loop_settings.period()) * 4.0 + 1.0;
-      haptics = std::make_unique<SceneHaptics>(clock, runner, HapticLimits{}, expected, options.realtime_priority);
+      haptics = std::make_unique<SceneHaptics>(clock, runner, scene.haptics.limits, expected, options.realtime_priority);
       haptics->start();
     }
     // ticks.csv: one row per tick run, for load tests and replays of a session's timing

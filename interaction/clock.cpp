@@ -2,23 +2,39 @@
 
 #include <time.h>
 
-#include <thread>
+#include <cerrno>
 
 namespace pliant {
+namespace {
 
-SteadyClock::SteadyClock() : epoch_(std::chrono::steady_clock::now()) {}
-
-double SteadyClock::now() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - epoch_).count();
+// CLOCK_MONOTONIC in nanoseconds: the clock clock_nanosleep can sleep on with an absolute deadline.
+int64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + static_cast<int64_t>(ts.tv_nsec);
 }
 
+}  // namespace
+
+SteadyClock::SteadyClock(double spin_us)
+    : epoch_ns_(monotonic_ns()), spin_ns_(static_cast<int64_t>(spin_us * 1e3)) {}
+
+double SteadyClock::now() const { return 1e-9 * static_cast<double>(monotonic_ns() - epoch_ns_); }
+
 void SteadyClock::sleep_until(double t) {
-  const auto deadline = epoch_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                     std::chrono::duration<double>(t));
-  // Sleep most of the way, then spin the last ~100 us: OS sleeps overshoot by tens of microseconds.
-  const auto spin = std::chrono::microseconds(100);
-  if (std::chrono::steady_clock::now() + spin < deadline) std::this_thread::sleep_until(deadline - spin);
-  while (std::chrono::steady_clock::now() < deadline) {
+  const int64_t deadline = epoch_ns_ + static_cast<int64_t>(t * 1e9);
+  // Sleep to an absolute deadline (a relative sleep computed from "now" is late by however long
+  // the thread was preempted between reading the clock and going to sleep), spin_ns before t, then
+  // spin: a wake-up from clock_nanosleep overshoots by tens of microseconds.
+  const int64_t wake = deadline - spin_ns_;
+  if (monotonic_ns() < wake) {
+    timespec ts{};
+    ts.tv_sec = static_cast<time_t>(wake / 1'000'000'000);
+    ts.tv_nsec = static_cast<long>(wake % 1'000'000'000);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    }
+  }
+  while (monotonic_ns() < deadline) {
   }
 }
 

@@ -2,13 +2,18 @@
 
 namespace pliant {
 
-HapticLimits parse_haptic_limits(const JsonReader& j) {
-  j.expect_keys({"max_force", "max_delta", "rate_hz"});
-  HapticLimits l;
+HapticSettings parse_haptic_settings(const JsonReader& j) {
+  j.expect_keys({"enabled", "max_force", "max_force_rate", "rate_hz"});
+  HapticSettings s;
+  HapticLimits& l = s.limits;
+  s.enabled = j.boolean_or("enabled", s.enabled);
   l.max_force = j.positive_number_or("max_force", l.max_force);
-  l.max_delta = j.positive_number_or("max_delta", l.max_delta);
   l.rate_hz = j.positive_number_or("rate_hz", l.rate_hz);
-  return l;
+  // A device loop runs at 1 kHz or a few kHz; beyond 10 kHz a tick's period nears a tick's cost.
+  if (l.rate_hz > 10000.0) j.at("rate_hz").fail(InputErrorKind::bad_value, "expected at most 10000 Hz");
+  const double default_rate = l.max_delta * 1000.0;  // N/s: 0.05 N per tick at 1 kHz
+  l.max_delta = j.positive_number_or("max_force_rate", default_rate) / l.rate_hz;
+  return s;
 }
 
 Vec3 HapticOutputFilter::filter(const Vec3& desired) {

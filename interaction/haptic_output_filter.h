@@ -16,8 +16,16 @@ struct HapticLimits {
   double rate_hz = 1000.0;      ///< ticks per second of the haptic thread
 };
 
-/// Reads {"max_force", "max_delta", "rate_hz"} (all optional).
-HapticLimits parse_haptic_limits(const JsonReader& j);
+/// The scene's optional "haptics" object (docs/scene-format.md): whether `pliant run --realtime`
+/// runs the haptic thread, and the limits of the force it sends.
+struct HapticSettings {
+  bool enabled = true;  ///< false: no haptic thread (as --no-haptics)
+  HapticLimits limits;  ///< max_delta = max_force_rate / rate_hz
+};
+
+/// Reads {"enabled", "max_force" (N), "max_force_rate" (N/s), "rate_hz"} (all optional); the rate
+/// limit per tick is max_force_rate / rate_hz. Errors name the JSON path.
+HapticSettings parse_haptic_settings(const JsonReader& j);
 
 class HapticOutputFilter {
  public:

@@ -141,7 +141,7 @@ BodyDef read_body(const JsonReader& j, const std::string& base_dir, size_t index
 
 ContactSettings read_contact(const JsonReader& j) {
   j.expect_keys({"method", "binary_search_iterations", "finishing_projection", "penalty_stiffness",
-                 "penalty_damping", "friction"});
+                 "penalty_damping", "friction", "held_force_fraction"});
   ContactSettings c;
   if (auto m = j.find("method")) c.method = contact_method_from_string(m->choice({"surface", "penalty", "none"}));
   if (auto it = j.find("binary_search_iterations")) {
@@ -154,6 +154,12 @@ ContactSettings read_contact(const JsonReader& j) {
   c.penalty_stiffness = j.positive_number_or("penalty_stiffness", c.penalty_stiffness);
   c.penalty_damping = j.non_negative_number_or("penalty_damping", c.penalty_damping);
   c.friction = j.boolean_or("friction", c.friction);
+  if (auto it = j.find("held_force_fraction")) {
+    c.held_force_fraction = it->number();
+    if (c.held_force_fraction < 0.0 || c.held_force_fraction > 1.0) {
+      it->fail(InputErrorKind::bad_value, "expected a number in [0, 1]");
+    }
+  }
   return c;
 }
 
@@ -209,7 +215,7 @@ ContactMethod contact_method_from_string(const std::string& name) {
 Scene parse_scene(const nlohmann::json& root_json, const std::string& source, const std::string& base_dir) {
   const JsonReader root(root_json, source);
   root.expect_keys({"name", "description", "time_step", "duration", "gravity", "bodies", "instruments", "script",
-                    "loop", "contact", "collision", "camera", "output", "sleep"});
+                    "loop", "contact", "collision", "camera", "output", "sleep", "haptics"});
   Scene scene;
   scene.file = source;
   scene.name = root.string_or("name", std::filesystem::path(source).stem().string());
@@ -267,6 +273,7 @@ Scene parse_scene(const nlohmann::json& root_json, const std::string& source, co
     }
   }
   if (auto loop = root.find("loop")) scene.loop = parse_loop_settings(*loop);
+  if (auto haptics = root.find("haptics")) scene.haptics = parse_haptic_settings(*haptics);
   if (auto camera = root.find("camera")) scene.camera = read_camera(*camera);
   if (auto output = root.find("output")) scene.output = read_output(*output);
   return scene;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "interaction/fixed_rate_loop.h"
+#include "interaction/haptic_output_filter.h"
 #include "interaction/instrument.h"
 #include "interaction/pose_source.h"
 #include "interaction/tool_script.h"
@@ -46,6 +47,7 @@ struct Scene {
   std::vector<InstrumentSpec> instruments;
   std::optional<ToolScript> script;
   LoopSettings loop;
+  HapticSettings haptics;      ///< "haptics": limits of the force sent at 1 kHz (run --realtime)
   std::optional<SceneCamera> camera;
   SceneOutput output;
 };

@@ -68,6 +68,13 @@ std::vector<Sample> press(double max_depth, int steps, double dt) {
   WorldSettings settings;
   settings.gravity = Vec3::Zero();
   settings.contact.method = ContactMethod::contact_surface;
+  // The whole contact force is held through the next integration (docs/interaction.md, "Why the
+  // Hertz and grasper tests hold the contact force"). Without it the implicit step springs the
+  // dent back every step, the block carries only the velocity impulses, and its fixed base
+  // carries 0.36x Hertz at 1 mm (slope 1.90; the reported probe force equals that base force
+  // within 3%, so the report is right and the load is missing). Measured on this test: held
+  // fraction 0 -> slope 1.90, 0.36x; 0.8 -> 1.654, 0.79x; 1.0 -> 1.516, 1.12x.
+  settings.contact.held_force_fraction = 1.0;
   World world(settings);
   BodyDef block;
   block.name = "block";
@@ -101,12 +108,7 @@ std::vector<Sample> press(double max_depth, int steps, double dt) {
   return samples;
 }
 
-// KNOWN FAILURE, disabled so CI can land (issue #6; run it with --gtest_also_run_disabled_tests):
-// on every committed state of the contact code the probe's reported force follows a log-log slope
-// of 1.90 (not 1.5 +- 0.15) and is 0.36x Hertz's at 1 mm; it passed (1.504, 1.06x) only on a
-// working tree with uncommitted contact changes. Suspected, not verified: the reported force of a
-// quasi-static press is the stage-5 impulse / dt, which under-counts the dent's elastic push-back.
-TEST(HertzContact, DISABLED_ForceAgainstIndentationHasLogLogSlopeOneAndAHalf) {
+TEST(HertzContact, ForceAgainstIndentationHasLogLogSlopeOneAndAHalf) {
   const std::vector<Sample> samples = press(0.0021, 900, 1e-3);
   // Mean (log d, log F) per 0.1 mm bin over 0.6-2.0 mm.
   std::vector<double> log_d, log_f;

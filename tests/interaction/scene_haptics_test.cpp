@@ -6,7 +6,10 @@
 //     independently); the torque column holds the last physics torque;
 //   - `pliant run --realtime` on the probe scene writes haptic_forces.csv (finite, within the
 //     10 N clamp, in contact for part of the run) and the tick statistics in summary.json; a
-//     non-realtime run writes neither (no timings are asserted).
+//     non-realtime run writes neither (no timings are asserted);
+//   - the scene's "haptics" object: parsed limits (max_force_rate / rate_hz per tick), errors
+//     with their JSON path, and `pliant run --realtime` sending at most the scene's maximum,
+//     changing by at most its rate per tick, or no haptic thread when "enabled" is false.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -15,6 +18,8 @@
 #include <sstream>
 
 #include "interaction/clock.h"
+#include "interaction/scene/scene.h"
+#include "sim/input_error.h"
 #include "interaction/scene/scene_haptics.h"
 #include "support/run_cli.h"
 
@@ -137,6 +142,94 @@ TEST(RealtimeRun, WritesHapticForcesAndTickStatistics) {
   std::ifstream plain_summary(out / "summary.json");
   EXPECT_TRUE(nlohmann::json::parse(plain_summary).at("haptics").is_null());
   std::filesystem::remove_all(out);
+}
+
+nlohmann::json probe_coarse_json() {
+  std::ifstream in(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/probe_coarse.json");
+  return nlohmann::json::parse(in);
+}
+
+TEST(SceneFormat, HapticsSectionSetsTheDeviceLimits) {
+  nlohmann::json j = probe_coarse_json();
+  const Scene plain = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_TRUE(plain.haptics.enabled);  // defaults: the HapticLimits defaults, 50 N/s at 1 kHz
+  EXPECT_EQ(plain.haptics.limits.max_force, 10.0);
+  EXPECT_NEAR(plain.haptics.limits.max_delta, 0.05, 1e-15);
+  EXPECT_EQ(plain.haptics.limits.rate_hz, 1000.0);
+  j["haptics"] = {{"enabled", false}, {"max_force", 2.5}, {"max_force_rate", 20.0}, {"rate_hz", 500.0}};
+  const Scene set = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_FALSE(set.haptics.enabled);
+  EXPECT_EQ(set.haptics.limits.max_force, 2.5);
+  EXPECT_NEAR(set.haptics.limits.max_delta, 20.0 / 500.0, 1e-15);  // N per tick
+  EXPECT_EQ(set.haptics.limits.rate_hz, 500.0);
+
+  auto error_of = [](const nlohmann::json& haptics) {
+    nlohmann::json scene = probe_coarse_json();
+    scene["haptics"] = haptics;
+    try {
+      parse_scene(scene, "probe_coarse.json", ".");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of({{"max_force", -1.0}}).find("/haptics/max_force"), std::string::npos);
+  EXPECT_NE(error_of({{"max_force_rate", 0.0}}).find("/haptics/max_force_rate"), std::string::npos);
+  EXPECT_NE(error_of({{"rate_hz", 20000.0}}).find("/haptics/rate_hz"), std::string::npos);
+  EXPECT_NE(error_of({{"enabled", "yes"}}).find("/haptics/enabled"), std::string::npos);
+  EXPECT_NE(error_of({{"max_delta", 0.1}}).find("/haptics/max_delta"), std::string::npos);  // unknown key
+  EXPECT_NE(error_of(nlohmann::json::array()).find("/haptics"), std::string::npos);
+}
+
+// Writes probe_coarse.json with a "haptics" object into `dir` and returns its path.
+std::string scene_with_haptics(const std::filesystem::path& dir, const nlohmann::json& haptics) {
+  nlohmann::json j = probe_coarse_json();
+  j["haptics"] = haptics;
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "probe_coarse_haptics.json";
+  std::ofstream(path) << j.dump(2);
+  return path.string();
+}
+
+TEST(RealtimeRun, SendsAtMostTheScenesMaximumForceAtTheScenesRate) {
+  const auto dir = std::filesystem::temp_directory_path() / "pliant_scene_haptics_limits_test";
+  std::filesystem::remove_all(dir);
+  const double max_force = 0.05, max_force_rate = 5.0;  // N, N/s: 0.005 N per 1 kHz tick
+  const std::string scene = scene_with_haptics(dir, {{"max_force", max_force}, {"max_force_rate", max_force_rate}});
+  const auto out = dir / "out";
+  const auto result = testing::run_cli("run " + scene + " --realtime --no-rt-priority --steps 300 --no-frames --quiet --out " +
+                                       out.string());
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  std::string header;
+  const auto rows = read_csv(out / "haptic_forces.csv", &header);
+  ASSERT_GT(rows.size(), 100u);
+  Vec3 previous = Vec3::Zero();  // the filter starts from zero
+  double largest = 0.0;
+  for (const auto& row : rows) {
+    const Vec3 f(std::stod(row[2]), std::stod(row[3]), std::stod(row[4]));
+    ASSERT_TRUE(f.allFinite());
+    // 17 significant digits in the file: the bounds hold to round-off.
+    EXPECT_LE(f.norm(), max_force * (1.0 + 1e-12));
+    EXPECT_LE((f - previous).norm(), max_force_rate / 1000.0 * (1.0 + 1e-9));
+    largest = std::max(largest, f.norm());
+    previous = f;
+  }
+  std::ifstream summary_file(out / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(summary_file);
+  // The probe pushes harder than 0.05 N within 300 steps, so the limits acted.
+  EXPECT_GT(summary.at("haptics").at("limited_ticks").get<long>(), 0);
+  EXPECT_GT(largest, 0.0);
+
+  // "enabled": false: --realtime runs no haptic thread.
+  const std::string off = scene_with_haptics(dir, {{"enabled", false}});
+  std::filesystem::remove_all(out);
+  const auto run_off = testing::run_cli("run " + off + " --realtime --no-rt-priority --steps 20 --no-frames --quiet --out " +
+                                        out.string());
+  ASSERT_EQ(run_off.exit_code, 0) << run_off.output;
+  EXPECT_FALSE(std::filesystem::exists(out / "haptic_forces.csv"));
+  std::ifstream off_summary(out / "summary.json");
+  EXPECT_TRUE(nlohmann::json::parse(off_summary).at("haptics").is_null());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
