@@ -264,7 +264,12 @@ void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> 
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
-      sum -= volume_[ts] * (first_piola(deformation_gradient(x, t), rotations_[ts].toRotationMatrix()) * g);
+      // Mueller & Gross's warped stiffness f = -R K (R^T x - X): the linear stress of the symmetric
+      // strain sym(R^T F) - I, rotated by R. (2 mu (F - R) would also resist a rotation away from R.)
+      const Mat3 F = deformation_gradient(x, t);
+      const Mat3 R = rotations_[ts].toRotationMatrix();
+      const Mat3 P = mu_ * (F + R * F.transpose() * R) - 2.0 * mu_ * R + lambda_ * (R.cwiseProduct(F).sum() - 3.0) * R;
+      sum -= volume_[ts] * (P * g);
     }
     f[k] = sum;
   }
