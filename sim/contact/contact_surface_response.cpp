@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 
 namespace pliant {
 namespace {
@@ -365,10 +364,13 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Contact forces are the stage-5 impulses over dt: equal and opposite on the two sides of each
   // contact, and exactly the weight for a body resting on a floor. Beside them, each side's own
   // elastic restoring force through its displaced surface measures the pressure balance.
-  std::map<std::pair<int, int>, PairContactForce> pairs;
+  pairs_.clear();  // few pairs per step: a linear search, and no allocation once grown
   auto pair_of = [&](int p, int q) -> PairContactForce& {
     const int a = std::min(p, q), b = std::max(p, q);
-    auto& pair = pairs[{a, b}];
+    for (auto& pair : pairs_) {
+      if (pair.body_a == a && pair.body_b == b) return pair;
+    }
+    PairContactForce& pair = pairs_.emplace_back();
     pair.body_a = a;
     pair.body_b = b;
     return pair;
@@ -412,7 +414,10 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       }
     }
   }
-  for (auto& [key, pair] : pairs) report.pair_forces.push_back(pair);
+  std::sort(pairs_.begin(), pairs_.end(), [](const PairContactForce& p, const PairContactForce& q) {
+    return p.body_a != q.body_a ? p.body_a < q.body_a : p.body_b < q.body_b;
+  });
+  report.pair_forces.insert(report.pair_forces.end(), pairs_.begin(), pairs_.end());
   for (size_t c = 0; c < contacts.size(); ++c) {
     report.max_residual_overlap = std::max(report.max_residual_overlap, contact_overlap(bodies, contacts[c]));
   }

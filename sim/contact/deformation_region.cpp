@@ -5,19 +5,28 @@
 
 namespace pliant {
 
-double comparison_area(const Body& body, int vertex, const Vec3& displacement) {
+VertexAreas vertex_areas(const Body& body, int vertex, const Vec3& displacement) {
   const TetMesh& mesh = *body.mesh;
   const double len = displacement.norm();
-  double projected = 0.0;
-  if (len > 0.0) {
-    const Vec3 dir = displacement / len;
-    for (int t : mesh.vertex_surface_triangles(vertex)) {
-      const double facing = -mesh.triangle_normal(body.positions, t).dot(dir);
-      if (facing > 0.0) projected += facing * mesh.triangle_area(body.positions, t);
-    }
+  const Vec3 dir = len > 0.0 ? Vec3(displacement / len) : Vec3::Zero();
+  double projected = 0.0, total = 0.0;
+  for (int t : mesh.vertex_surface_triangles(vertex)) {
+    const auto& tri = mesh.surface_triangles()[static_cast<size_t>(t)];
+    const Vec3& a = body.positions[static_cast<size_t>(tri[0])];
+    const Vec3 n = (body.positions[static_cast<size_t>(tri[1])] - a).cross(body.positions[static_cast<size_t>(tri[2])] - a);
+    total += 0.5 * n.norm();
+    // facing * area = -(n / |n|) . dir * |n| / 2
+    const double facing_area = -0.5 * n.dot(dir);
+    if (facing_area > 0.0) projected += facing_area;
   }
-  projected /= 3.0;
-  return projected > 0.0 ? projected : mesh.vertex_surface_area(body.positions, vertex);
+  VertexAreas areas;
+  areas.unprojected = total / 3.0;
+  areas.comparison = projected > 0.0 ? projected / 3.0 : areas.unprojected;
+  return areas;
+}
+
+double comparison_area(const Body& body, int vertex, const Vec3& displacement) {
+  return vertex_areas(body, vertex, displacement).comparison;
 }
 
 int DeformationRegion::find(int body, int vertex) const {
@@ -123,8 +132,9 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
     // An immovable vertex's pressure is never compared (it does not search, and is not evaluated).
     if (!v.immovable) {
       const Body& b = *bodies[static_cast<size_t>(v.body)];
-      v.area = comparison_area(b, v.vertex, v.displacement);
-      v.length = std::sqrt(b.mesh->vertex_surface_area(b.positions, v.vertex));
+      const VertexAreas areas = vertex_areas(b, v.vertex, v.displacement);
+      v.area = areas.comparison;
+      v.length = std::sqrt(areas.unprojected);
     }
     for (const auto& p : partners_of(v)) {
       if (vertices_[static_cast<size_t>(p.region_vertex)].immovable) v.rigid_partner = true;

@@ -27,6 +27,14 @@ namespace pliant {
 /// Falls back to the unprojected share when nothing faces the displacement.
 double comparison_area(const Body& body, int vertex, const Vec3& displacement);
 
+/// comparison_area() and, in the same pass, the unprojected share (one third of the adjacent
+/// surface triangles' area, m^2).
+struct VertexAreas {
+  double comparison = 0.0;
+  double unprojected = 0.0;
+};
+VertexAreas vertex_areas(const Body& body, int vertex, const Vec3& displacement);
+
 /// One vertex of the deformation region.
 struct DisplacementVertex {
   int body = -1;
