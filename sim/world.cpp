@@ -178,7 +178,18 @@ void World::rebuild_body_view() {
 }
 
 const StepReport& World::step(double dt, StepProfiler* profiler) {
-  report_ = StepReport{};
+  {  // A fresh report that keeps its vectors' capacity: no allocation per step once they have grown.
+    auto reactions = std::move(report_.reactions);
+    auto pair_forces = std::move(report_.pair_forces);
+    auto body_energy = std::move(report_.body_energy);
+    reactions.clear();
+    pair_forces.clear();
+    body_energy.clear();
+    report_ = StepReport{};
+    report_.reactions = std::move(reactions);
+    report_.pair_forces = std::move(pair_forces);
+    report_.body_energy = std::move(body_energy);
+  }
   report_.step_index = step_count_;
   report_.dt = dt;
   if (!(dt > 0.0) || !std::isfinite(dt)) {

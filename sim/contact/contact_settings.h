@@ -19,6 +19,12 @@ struct ContactSettings {
   /// Beyond the paper: after the binary search, one secant (regula falsi) estimate of the balance
   /// from the samples the search took, so stiffness ratios beyond 2^(n+1) are represented.
   bool secant_refinement = false;
+  /// Inside the binary search, evaluate internal forces with element rotations frozen at the
+  /// model's last linearisation (DeformationModel::internal_forces_at_frozen_rotations: cheaper,
+  /// approximate) for a body whose searching vertices move by at most h / 2^(n+1) (h: local edge
+  /// length), where its error stays below the search's resolution (docs/contact-surface.md,
+  /// "Speed"); the same for the final evaluation at the contact surface. false: always exact.
+  bool frozen_rotation_search = true;
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0

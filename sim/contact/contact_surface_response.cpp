@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 
 namespace pliant {
 namespace {
@@ -31,13 +30,46 @@ void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>
 }
 
 // Internal forces at the region's movable vertices (local query), and the elastic restoring
-// pressure along each vertex's own displacement direction.
-void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region) {
+// pressure along each vertex's own displacement direction. `search_only`: only the vertices the
+// binary search reads (each group's leading search_count), else all.
+// With `frozen_iterations` (n) > 0, a vertex that moved at most h / 2^(n+1) from where the model
+// last linearised (h: its local edge length) is evaluated with the model's frozen-rotation query:
+// its error relative to the force change grows like |s| / h (0.4 |s| / h measured on a
+// pre-stressed beam, docs/deformation-models.md), so there it stays below the search's own
+// resolution 1 / 2^(n+1), with a margin of about 2.5. The others get the exact query.
+void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region, bool search_only,
+                        int frozen_iterations) {
   auto& vertices = region.vertices();
+  const double resolution = std::ldexp(1.0, -(frozen_iterations + 1));
   for (auto& g : region.groups()) {
+    const size_t count = search_only ? g.search_count : g.vertices.size();
+    if (count == 0) continue;
     Body& body = *bodies[static_cast<size_t>(g.body)];
-    body.model->internal_forces_at(body.positions, g.vertices, g.forces);
-    for (size_t i = 0; i < g.vertices.size(); ++i) {
+    for (int pass = 0; pass < 2; ++pass) {  // frozen, then exact
+      const bool frozen = pass == 0;
+      if (frozen && frozen_iterations <= 0) continue;
+      g.query_vertices.clear();
+      g.query_entries.clear();
+      for (size_t i = 0; i < count; ++i) {
+        const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+        const double limit = resolution * v.length;
+        const bool small = frozen_iterations > 0 && v.displacement.squaredNorm() <= limit * limit;
+        if (small != frozen) continue;
+        g.query_vertices.push_back(g.vertices[i]);
+        g.query_entries.push_back(static_cast<int>(i));
+      }
+      if (g.query_vertices.empty()) continue;
+      g.query_forces.resize(g.query_vertices.size());
+      if (frozen) {
+        body.model->internal_forces_at_frozen_rotations(body.positions, g.query_vertices, g.query_forces);
+      } else {
+        body.model->internal_forces_at(body.positions, g.query_vertices, g.query_forces);
+      }
+      for (size_t q = 0; q < g.query_entries.size(); ++q) {
+        g.forces[static_cast<size_t>(g.query_entries[q])] = g.query_forces[q];
+      }
+    }
+    for (size_t i = 0; i < count; ++i) {
       auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
       const double len = v.displacement.norm();
       const double along = len > 0.0 ? -g.forces[i].dot(v.displacement) / len : 0.0;
@@ -268,8 +300,11 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   place_region(bodies, vertices);
   const int iterations = std::max(0, settings.binary_search_iterations);
   samples_.assign(vertices.size(), SearchSamples{});
+  // Without searching vertices (everything in contact faces an immovable body) no pressure is
+  // read: the fractions below still step as before (a zero displacement only ever goes further).
+  const bool search = region_.has_searching_vertices();
   for (int k = 1; k <= iterations; ++k) {
-    evaluate_pressures(bodies, region_);
+    if (search) evaluate_pressures(bodies, region_, true, settings.frozen_rotation_search ? iterations : 0);
     const double step = std::ldexp(1.0, -(k + 1));  // 1 / 2^(k+1)
     for (size_t i = 0; i < vertices.size(); ++i) {
       auto& v = vertices[i];
@@ -278,7 +313,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       samples_[i].add(v.fraction, difference);
       v.fraction += difference > 0.0 ? -step : step;
     }
-    place_region(bodies, vertices);
+    if (search) place_region(bodies, vertices);
   }
   report.binary_search_iterations = iterations;
   if (settings.secant_refinement) {
@@ -295,8 +330,9 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
     if (observer) observer(ContactStage::projection);
   }
 
-  // Forces at the final contact surface: pressure imbalance and quasi-static contact forces.
-  evaluate_pressures(bodies, region_);
+  // Forces at the final contact surface (frozen rotations under the same bound as the search):
+  // pressure imbalance, the held-force cap and each side's elastic force in the report.
+  evaluate_pressures(bodies, region_, false, settings.frozen_rotation_search ? iterations : 0);
   double imbalance_sum = 0.0;
   int imbalance_count = 0;
   for (const auto& v : vertices) {
@@ -328,10 +364,13 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Contact forces are the stage-5 impulses over dt: equal and opposite on the two sides of each
   // contact, and exactly the weight for a body resting on a floor. Beside them, each side's own
   // elastic restoring force through its displaced surface measures the pressure balance.
-  std::map<std::pair<int, int>, PairContactForce> pairs;
+  pairs_.clear();  // few pairs per step: a linear search, and no allocation once grown
   auto pair_of = [&](int p, int q) -> PairContactForce& {
     const int a = std::min(p, q), b = std::max(p, q);
-    auto& pair = pairs[{a, b}];
+    for (auto& pair : pairs_) {
+      if (pair.body_a == a && pair.body_b == b) return pair;
+    }
+    PairContactForce& pair = pairs_.emplace_back();
     pair.body_a = a;
     pair.body_b = b;
     return pair;
@@ -375,7 +414,10 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       }
     }
   }
-  for (auto& [key, pair] : pairs) report.pair_forces.push_back(pair);
+  std::sort(pairs_.begin(), pairs_.end(), [](const PairContactForce& p, const PairContactForce& q) {
+    return p.body_a != q.body_a ? p.body_a < q.body_a : p.body_b < q.body_b;
+  });
+  report.pair_forces.insert(report.pair_forces.end(), pairs_.begin(), pairs_.end());
   for (size_t c = 0; c < contacts.size(); ++c) {
     report.max_residual_overlap = std::max(report.max_residual_overlap, contact_overlap(bodies, contacts[c]));
   }

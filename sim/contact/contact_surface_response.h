@@ -68,6 +68,7 @@ class ContactSurfaceResponse final : public ContactResponse {
   size_t lingering_begin_ = 0;                ///< first lingering entry of all_contacts_
   DeformationRegion region_;
   std::vector<SearchSamples> samples_;              ///< stage 3 result, reused across steps
+  std::vector<PairContactForce> pairs_;             ///< this step's per-pair forces (scratch)
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
 };
 

@@ -1,22 +1,32 @@
 #include "sim/contact/deformation_region.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace pliant {
 
-double comparison_area(const Body& body, int vertex, const Vec3& displacement) {
+VertexAreas vertex_areas(const Body& body, int vertex, const Vec3& displacement) {
   const TetMesh& mesh = *body.mesh;
   const double len = displacement.norm();
-  double projected = 0.0;
-  if (len > 0.0) {
-    const Vec3 dir = displacement / len;
-    for (int t : mesh.vertex_surface_triangles(vertex)) {
-      const double facing = -mesh.triangle_normal(body.positions, t).dot(dir);
-      if (facing > 0.0) projected += facing * mesh.triangle_area(body.positions, t);
-    }
+  const Vec3 dir = len > 0.0 ? Vec3(displacement / len) : Vec3::Zero();
+  double projected = 0.0, total = 0.0;
+  for (int t : mesh.vertex_surface_triangles(vertex)) {
+    const auto& tri = mesh.surface_triangles()[static_cast<size_t>(t)];
+    const Vec3& a = body.positions[static_cast<size_t>(tri[0])];
+    const Vec3 n = (body.positions[static_cast<size_t>(tri[1])] - a).cross(body.positions[static_cast<size_t>(tri[2])] - a);
+    total += 0.5 * n.norm();
+    // facing * area = -(n / |n|) . dir * |n| / 2
+    const double facing_area = -0.5 * n.dot(dir);
+    if (facing_area > 0.0) projected += facing_area;
   }
-  projected /= 3.0;
-  return projected > 0.0 ? projected : mesh.vertex_surface_area(body.positions, vertex);
+  VertexAreas areas;
+  areas.unprojected = total / 3.0;
+  areas.comparison = projected > 0.0 ? projected / 3.0 : areas.unprojected;
+  return areas;
+}
+
+double comparison_area(const Body& body, int vertex, const Vec3& displacement) {
+  return vertex_areas(body, vertex, displacement).comparison;
 }
 
 int DeformationRegion::find(int body, int vertex) const {
@@ -53,13 +63,12 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
   index_of_.resize(bodies.size());
 
   // Eq. 1 numerator and denominator per region vertex, and (owner, partner, weight) triples.
-  std::vector<Vec3> numerator;
-  std::vector<double> denominator;
-  struct Triple {
-    int owner, partner;
-    double weight;
-  };
-  std::vector<Triple> triples;
+  std::vector<Vec3>& numerator = numerator_;
+  std::vector<double>& denominator = denominator_;
+  std::vector<Triple>& triples = triples_;
+  numerator.clear();
+  denominator.clear();
+  triples.clear();
   auto grow = [&](int idx) {
     if (static_cast<size_t>(idx) >= numerator.size()) {
       numerator.resize(static_cast<size_t>(idx) + 1, Vec3::Zero());
@@ -92,7 +101,8 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
 
   // Fallback of section 4.4.3: a colliding vertex with no vertex of the other body in its
   // comparison area compares against the vertices of its own contact triangle.
-  std::vector<char> has_partner(vertices_.size(), 0);
+  std::vector<char>& has_partner = flag_;
+  has_partner.assign(vertices_.size(), 0);
   for (const auto& t : triples) has_partner[static_cast<size_t>(t.owner)] = 1;
   for (size_t c = 0; c < contacts.size(); ++c) {
     const int x = contact_vertex_[c];
@@ -119,7 +129,13 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
     auto& v = vertices_[i];
     if (!v.colliding) denominator[i] += 1.0;  // Eq. 1's "+1" with d = 0
     v.displacement = denominator[i] > 0.0 ? Vec3(numerator[i] / denominator[i]) : Vec3::Zero();
-    v.area = comparison_area(*bodies[static_cast<size_t>(v.body)], v.vertex, v.displacement);
+    // An immovable vertex's pressure is never compared (it does not search, and is not evaluated).
+    if (!v.immovable) {
+      const Body& b = *bodies[static_cast<size_t>(v.body)];
+      const VertexAreas areas = vertex_areas(b, v.vertex, v.displacement);
+      v.area = areas.comparison;
+      v.length = std::sqrt(areas.unprojected);
+    }
     for (const auto& p : partners_of(v)) {
       if (vertices_[static_cast<size_t>(p.region_vertex)].immovable) v.rigid_partner = true;
     }
@@ -132,27 +148,44 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
     }
   }
 
-  // Group movable vertices per body for the local force query.
-  for (auto& g : groups_) {
+  // Which vertices search, and which the search needs (searching vertices and their partners).
+  searching_count_ = 0;
+  std::vector<char>& needed = flag_;
+  needed.assign(vertices_.size(), 0);
+  for (auto& v : vertices_) {
+    v.searching = !v.immovable && !v.rigid_partner && v.displacement.squaredNorm() > 0.0;
+    if (!v.searching) continue;
+    ++searching_count_;
+    needed[static_cast<size_t>(&v - vertices_.data())] = 1;
+    for (const auto& p : partners_of(v)) needed[static_cast<size_t>(p.region_vertex)] = 1;
+  }
+
+  // Group movable vertices per body for the local force query: the search's vertices first.
+  for (auto& g : groups_) {  // all, so a group left over from an earlier step is empty
     g.vertices.clear();
     g.region_indices.clear();
+    g.search_count = 0;
   }
   size_t used = 0;
-  std::vector<int> group_of(bodies.size(), -1);
-  for (size_t i = 0; i < vertices_.size(); ++i) {
-    const auto& v = vertices_[i];
-    if (v.immovable) continue;
-    int& g = group_of[static_cast<size_t>(v.body)];
-    if (g < 0) {
-      g = static_cast<int>(used++);
-      if (groups_.size() < used) groups_.emplace_back();
-      groups_[static_cast<size_t>(g)].body = v.body;
+  group_of_.assign(bodies.size(), -1);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t i = 0; i < vertices_.size(); ++i) {
+      const auto& v = vertices_[i];
+      if (v.immovable || (needed[i] != 0) != (pass == 0)) continue;
+      int& g = group_of_[static_cast<size_t>(v.body)];
+      if (g < 0) {
+        g = static_cast<int>(used++);
+        if (groups_.size() < used) groups_.emplace_back();
+        groups_[static_cast<size_t>(g)].body = v.body;
+      }
+      auto& group = groups_[static_cast<size_t>(g)];
+      group.vertices.push_back(v.vertex);
+      group.region_indices.push_back(static_cast<int>(i));
+      if (pass == 0) group.search_count = group.vertices.size();
     }
-    groups_[static_cast<size_t>(g)].vertices.push_back(v.vertex);
-    groups_[static_cast<size_t>(g)].region_indices.push_back(static_cast<int>(i));
   }
-  groups_.resize(used);
-  for (auto& g : groups_) g.forces.resize(g.vertices.size());
+  group_count_ = used;
+  for (auto& g : groups()) g.forces.resize(g.vertices.size());
 }
 
 }  // namespace pliant

@@ -27,6 +27,14 @@ namespace pliant {
 /// Falls back to the unprojected share when nothing faces the displacement.
 double comparison_area(const Body& body, int vertex, const Vec3& displacement);
 
+/// comparison_area() and, in the same pass, the unprojected share (one third of the adjacent
+/// surface triangles' area, m^2).
+struct VertexAreas {
+  double comparison = 0.0;
+  double unprojected = 0.0;
+};
+VertexAreas vertex_areas(const Body& body, int vertex, const Vec3& displacement);
+
 /// One vertex of the deformation region.
 struct DisplacementVertex {
   int body = -1;
@@ -35,10 +43,12 @@ struct DisplacementVertex {
   Vec3 displacement = Vec3::Zero();  ///< s, Eq. 1 (m)
   double fraction = 0.0;             ///< lambda: the vertex sits at x + lambda s
   double area = 0.0;                 ///< comparison area (m^2), see comparison_area()
+  double length = 0.0;               ///< local edge length (m): sqrt of a third of the adjacent surface area
   double pressure = 0.0;             ///< elastic restoring pressure along s (Pa), from the last evaluation
   bool immovable = false;            ///< kinematic body or fixed vertex: never displaced
   bool rigid_partner = false;        ///< touches an immovable vertex: takes the whole displacement
   bool colliding = false;            ///< the vertex itself penetrates the other body
+  bool searching = false;            ///< takes part in the binary search (movable, s != 0, no rigid partner)
   int partner_begin = 0;             ///< first comparison partner in DeformationRegion::partners()
   int partner_count = 0;
 };
@@ -68,14 +78,23 @@ class DeformationRegion {
   const std::array<int, 3>& contact_triangle_vertices(size_t c) const { return contact_triangle_[c]; }
 
   /// Bodies with movable region vertices, with those vertices' ids and region indices, for the
-  /// local force query.
+  /// local force query. The first `search_count` entries are the vertices the binary search needs
+  /// (searching vertices and their comparison partners); the rest are evaluated only once, at the
+  /// final contact surface.
   struct BodyGroup {
     int body = -1;
     std::vector<int> vertices;        ///< vertex ids in the body
     std::vector<int> region_indices;  ///< matching DisplacementVertex indices
     std::vector<Vec3> forces;         ///< scratch for internal_forces_at
+    size_t search_count = 0;          ///< leading entries needed by the search
+    // Scratch of one local query over a subset of the entries (ids, entry index, forces).
+    std::vector<int> query_vertices, query_entries;
+    std::vector<Vec3> query_forces;
   };
-  std::vector<BodyGroup>& groups() { return groups_; }
+  std::span<BodyGroup> groups() { return {groups_.data(), group_count_}; }
+  /// True if some vertex searches (else the binary search has nothing to do: every movable vertex
+  /// faces an immovable one, e.g. tissue against an instrument).
+  bool has_searching_vertices() const { return searching_count_ > 0; }
 
  private:
   int add_vertex(std::span<Body* const> bodies, int body, int vertex);
@@ -85,7 +104,20 @@ class DeformationRegion {
   std::vector<std::vector<int>> index_of_;  ///< per body slot: vertex -> region index or -1
   std::vector<int> contact_vertex_;
   std::vector<std::array<int, 3>> contact_triangle_;
-  std::vector<BodyGroup> groups_;
+  std::vector<BodyGroup> groups_;  ///< the first group_count_ are this step's (the rest keep buffers)
+  size_t group_count_ = 0;
+  size_t searching_count_ = 0;
+
+  // Scratch of build(), kept so a step allocates nothing once the buffers have grown.
+  struct Triple {
+    int owner, partner;
+    double weight;
+  };
+  std::vector<Vec3> numerator_;
+  std::vector<double> denominator_;
+  std::vector<Triple> triples_;
+  std::vector<char> flag_;      ///< per region vertex: has a partner / needed by the search
+  std::vector<int> group_of_;   ///< per body slot: group index or -1
 };
 
 }  // namespace pliant
