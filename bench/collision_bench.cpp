@@ -259,6 +259,23 @@ void BM_ProbeDetect(benchmark::State& state) {
 }
 BENCHMARK(BM_ProbeDetect)->Arg(750)->Arg(1100)->ArgName("step")->Unit(benchmark::kMicrosecond);
 
+// The pair filter World::detect rebuilds every step, on the probe scene's two bodies: a new filter
+// (from_bodies: one allocation, as before session 3) or in place (assign_from_bodies).
+void BM_ProbeFilterRebuild(benchmark::State& state) {
+  const ProbeSnapshots& s = probe_snapshots(750);
+  CollisionFilter filter;
+  const std::vector<CollisionBody> bodies = probe_bodies(s, 0, filter);
+  for (auto _ : state) {
+    if (state.range(0) != 0) {
+      filter.assign_from_bodies(bodies);
+    } else {
+      filter = CollisionFilter::from_bodies(bodies);
+    }
+    benchmark::DoNotOptimize(&filter);
+  }
+}
+BENCHMARK(BM_ProbeFilterRebuild)->Arg(0)->Arg(1)->ArgName("in_place")->Unit(benchmark::kNanosecond);
+
 void BM_ProbeDepth(benchmark::State& state) {
   const ProbeSnapshots& s = probe_snapshots(static_cast<int>(state.range(0)));
   CollisionFilter filter[2];
