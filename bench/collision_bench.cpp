@@ -118,32 +118,53 @@ void BM_BruteForceDetect(benchmark::State& state) {
 BENCHMARK(BM_BruteForceDetect)->Arg(1000)->Arg(2000)->Arg(5000)->Arg(10000)->ArgName("tets")
     ->Unit(benchmark::kMillisecond);
 
-// Stage 2 on the heap's colliding vertices: time per colliding point (includes the per-step BVH
-// builds of the penetrated bodies' surfaces and their vertex normals).
+// Stage 2 on the heap's colliding vertices: time per colliding point (includes bringing the
+// penetrated bodies' surface hierarchies to the current positions, and their vertex normals).
+// Calls alternate between the scene and a copy whose bodies moved by 1 mm (a rigid shift plus a
+// jitter per vertex of up to 0.5 mm), as consecutive steps would: every call sees new positions,
+// so no cached surface data can be reused as is. range(2) = 0 repeats one pose instead (the
+// session-2 benchmark; with unchanged positions the hierarchies are then kept between calls).
 void BM_PenetrationDepth(benchmark::State& state) {
-  const HeapScene s = make_heap(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true);
+  HeapScene s = make_heap(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true);
+  const bool moving = state.range(2) != 0;
+  std::vector<std::vector<Vec3>> moved = s.positions;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-5e-4, 5e-4);
+  for (auto& body : moved) {
+    const Vec3 shift = 1e-3 * Vec3(u(rng), u(rng), u(rng)).normalized();
+    for (Vec3& p : body) p += shift + Vec3(u(rng), u(rng), u(rng));
+  }
+  std::vector<CollisionBody> moved_bodies = s.bodies;
+  for (size_t b = 0; b < moved_bodies.size(); ++b) moved_bodies[b].positions = moved[b];
+  const std::vector<CollisionBody>* bodies[2] = {&s.bodies, moving ? &moved_bodies : &s.bodies};
   SpatialHash hash;
-  std::vector<VertexInTet> colliding;
-  hash.detect(s.bodies, s.filter, colliding);
+  std::vector<VertexInTet> colliding[2];
+  hash.detect(*bodies[0], s.filter, colliding[0]);
+  hash.detect(*bodies[1], s.filter, colliding[1]);
   PenetrationDepthSolver solver;
   std::vector<VertexContact> contacts;
-  solver.compute(s.bodies, colliding, contacts);
+  solver.compute(*bodies[0], colliding[0], contacts);
+  int k = 0;
   for (auto _ : state) {
-    solver.compute(s.bodies, colliding, contacts);
+    k ^= 1;
+    solver.compute(*bodies[k], colliding[k], contacts);
     benchmark::DoNotOptimize(contacts.data());
   }
-  set_counters(state, s, colliding.size());
+  const double points = 0.5 * static_cast<double>(colliding[0].size() + colliding[1].size());
+  set_counters(state, s, colliding[k].size());
+  state.counters["colliding"] = points;
   const auto& st = solver.stats();
   state.counters["border"] = st.border_points;
   state.counters["propagated"] = st.propagated_points;
   state.counters["enclosed"] = st.enclosed_fallback_points;
-  state.counters["edges_per_point"] = static_cast<double>(st.edge_intersections) / static_cast<double>(colliding.size());
-  state.counters["time_per_point"] = benchmark::Counter(static_cast<double>(colliding.size()),
-                                                        benchmark::Counter::kIsIterationInvariantRate |
-                                                            benchmark::Counter::kInvert);
+  state.counters["edges_per_point"] = static_cast<double>(st.edge_intersections) / static_cast<double>(colliding[k].size());
+  state.counters["time_per_point"] =
+      benchmark::Counter(points, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_PenetrationDepth)->Args({10000, 4})->Args({100000, 4})->Args({100000, 8})
-    ->ArgNames({"tets", "cells"})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PenetrationDepth)
+    ->Args({10000, 4, 1})->Args({100000, 4, 1})->Args({100000, 8, 1})
+    ->Args({10000, 4, 0})->Args({100000, 4, 0})->Args({100000, 8, 0})
+    ->ArgNames({"tets", "cells", "moving"})->Unit(benchmark::kMillisecond);
 
 // The probe scene of `pliant bench probe --warm-up 700 --steps 100` (assets/scenes/probe.json:
 // 1,931 vertices, tissue 12x12x5 cells and a sphere-tipped probe being pressed in): stages 1 and 2
@@ -237,6 +258,23 @@ void BM_ProbeDetect(benchmark::State& state) {
   state.counters["entries_scanned"] = static_cast<double>(hash.stats().entries_scanned);
 }
 BENCHMARK(BM_ProbeDetect)->Arg(750)->Arg(1100)->ArgName("step")->Unit(benchmark::kMicrosecond);
+
+// The pair filter World::detect rebuilds every step, on the probe scene's two bodies: a new filter
+// (from_bodies: one allocation, as before session 3) or in place (assign_from_bodies).
+void BM_ProbeFilterRebuild(benchmark::State& state) {
+  const ProbeSnapshots& s = probe_snapshots(750);
+  CollisionFilter filter;
+  const std::vector<CollisionBody> bodies = probe_bodies(s, 0, filter);
+  for (auto _ : state) {
+    if (state.range(0) != 0) {
+      filter.assign_from_bodies(bodies);
+    } else {
+      filter = CollisionFilter::from_bodies(bodies);
+    }
+    benchmark::DoNotOptimize(&filter);
+  }
+}
+BENCHMARK(BM_ProbeFilterRebuild)->Arg(0)->Arg(1)->ArgName("in_place")->Unit(benchmark::kNanosecond);
 
 void BM_ProbeDepth(benchmark::State& state) {
   const ProbeSnapshots& s = probe_snapshots(static_cast<int>(state.range(0)));

@@ -278,7 +278,7 @@ void World::integrate(double dt) {
 }
 
 void World::build_collision_filter() {
-  filter_ = CollisionFilter::from_bodies(collision_bodies_);
+  filter_.assign_from_bodies(collision_bodies_);  // in place: no allocation per step
   // Two kinematic bodies never need contact; neither do excluded pairs.
   for (size_t a = 0; a < body_view_.size(); ++a) {
     for (size_t b = a + 1; b < body_view_.size(); ++b) {

@@ -77,10 +77,18 @@ class CollisionFilter {
   }
   /// Filter from bodies' active flags, groups and masks and self-collision flags.
   static CollisionFilter from_bodies(std::span<const CollisionBody> bodies) {
-    CollisionFilter f(static_cast<int>(bodies.size()));
-    for (int a = 0; a < f.n_; ++a) {
+    CollisionFilter f;
+    f.assign_from_bodies(bodies);
+    return f;
+  }
+  /// Same as `*this = from_bodies(bodies)`, reusing this filter's storage (no allocation once it has
+  /// held as many bodies): the world rebuilds its filter every step.
+  void assign_from_bodies(std::span<const CollisionBody> bodies) {
+    n_ = static_cast<int>(bodies.size());
+    allowed_.assign(static_cast<size_t>(n_ * n_), 0);
+    for (int a = 0; a < n_; ++a) {
       const auto& ba = bodies[static_cast<size_t>(a)];
-      for (int b = a; b < f.n_; ++b) {
+      for (int b = a; b < n_; ++b) {
         const auto& bb = bodies[static_cast<size_t>(b)];
         bool ok = ba.active && bb.active;
         if (a == b) {
@@ -89,10 +97,9 @@ class CollisionFilter {
           ok = ok && (ba.collision_group & bb.collision_mask) != 0u &&
                (bb.collision_group & ba.collision_mask) != 0u;
         }
-        f.set(a, b, ok);
+        set(a, b, ok);
       }
     }
-    return f;
   }
 
  private:

@@ -14,16 +14,25 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
   Surface& s = surfaces_[static_cast<size_t>(body)];
   if (s.built_in_call != call_) {
     const CollisionBody& cb = bodies[static_cast<size_t>(body)];
-    if (s.bvh.mesh() != cb.mesh || s.refits + 1 >= options_.bvh_rebuild_interval) {
+    if (s.bvh.mesh() != cb.mesh) {
       s.bvh.build(*cb.mesh, cb.positions);
       s.refits = 0;
+      ++stats_.surfaces_built;
     } else {
-      s.bvh.refit(cb.positions);
-      ++s.refits;
+      // Lazy while the surface stays near where its boxes were fitted; a full refit otherwise, and
+      // every bvh_rebuild_interval-th full update a rebuild (restores the tree after deformation).
+      const SurfaceBvhUpdate u =
+          s.bvh.refit(cb.positions, options_.bvh_lazy_refit_edges, s.refits + 1 >= options_.bvh_rebuild_interval);
+      switch (u) {
+        case SurfaceBvhUpdate::unchanged: ++stats_.surfaces_unchanged; break;
+        case SurfaceBvhUpdate::lazy: ++stats_.surfaces_lazy; break;
+        case SurfaceBvhUpdate::refit: ++s.refits; ++stats_.surfaces_refitted; break;
+        case SurfaceBvhUpdate::rebuild: s.refits = 0; ++stats_.surfaces_built; break;
+      }
     }
     // Vertex normals only where a hit needs them (vertex_normal), not for the whole surface.
     s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
-    s.normal_call.resize(static_cast<size_t>(cb.mesh->vertex_count()), 0);
+    s.normal_epoch.resize(static_cast<size_t>(cb.mesh->vertex_count()), 0);
     s.built_in_call = call_;
   }
   return s;
@@ -31,7 +40,7 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
 
 const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
   Vec3& n = surface.vertex_normals[static_cast<size_t>(v)];
-  if (surface.normal_call[static_cast<size_t>(v)] != call_) {
+  if (surface.normal_epoch[static_cast<size_t>(v)] != surface.bvh.pose_epoch()) {
     // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
     // ascending triangle order (vertex_surface_triangles is sorted), then normalised.
     const TetMesh& mesh = *surface.bvh.mesh();
@@ -44,7 +53,7 @@ const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
     }
     const double len = n.norm();
     if (len > 0.0) n /= len;
-    surface.normal_call[static_cast<size_t>(v)] = call_;
+    surface.normal_epoch[static_cast<size_t>(v)] = surface.bvh.pose_epoch();
   }
   return n;
 }
@@ -75,14 +84,17 @@ void PenetrationDepthSolver::compute(std::span<const CollisionBody> bodies, std:
   const int n = static_cast<int>(colliding.size());
   order_.resize(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) order_[static_cast<size_t>(i)] = i;
-  std::sort(order_.begin(), order_.end(), [&](int a, int b) {
+  auto before = [&](int a, int b) {
     const VertexInTet& p = colliding[static_cast<size_t>(a)];
     const VertexInTet& q = colliding[static_cast<size_t>(b)];
     if (p.body != q.body) return p.body < q.body;
     if (p.penetrated_body != q.penetrated_body) return p.penetrated_body < q.penetrated_body;
     if (p.vertex != q.vertex) return p.vertex < q.vertex;
     return a < b;
-  });
+  };
+  // Stage 1's order (body, vertex, penetrated body) already is this one unless some vertex lies in
+  // two bodies: then sort.
+  if (!std::is_sorted(order_.begin(), order_.end(), before)) std::sort(order_.begin(), order_.end(), before);
   results_.resize(static_cast<size_t>(n));
   has_result_.assign(static_cast<size_t>(n), 0);
   for (int begin = 0; begin < n;) {

@@ -28,8 +28,13 @@ namespace pliant {
 
 /// Tuning of stage 2.
 struct PenetrationDepthOptions {
-  /// A penetrated body's surface hierarchy is rebuilt after this many refits (1: every step).
+  /// A penetrated body's surface hierarchy is rebuilt instead of its bvh_rebuild_interval-th full
+  /// refit (1: every full update is a rebuild).
   int bvh_rebuild_interval = 16;
+  /// While no surface vertex moved more than this many mean edge lengths since the hierarchy's
+  /// boxes were fitted, a step only inflates them and refits the leaves queries reach (0: a full
+  /// refit whenever anything moved). See SurfaceBvh.
+  double bvh_lazy_refit_edges = 0.25;
 };
 
 /// What the last compute() did (for tests, benchmarks and diagnostics).
@@ -43,6 +48,10 @@ struct PenetrationDepthStats {
   int dropped = 0;                  ///< no eligible surface triangle at all: no entry in `out`
   long long edge_intersections = 0; ///< border edges intersected with the surface
   int max_layer = 0;                ///< deepest propagation layer reached
+  int surfaces_unchanged = 0;       ///< penetrated surfaces whose positions did not change
+  int surfaces_lazy = 0;            ///< ... whose hierarchy only inflated its boxes (lazy refit)
+  int surfaces_refitted = 0;        ///< ... whose hierarchy was refitted in full
+  int surfaces_built = 0;           ///< ... whose hierarchy was (re)built
 };
 
 class PenetrationDepthSolver {
@@ -64,10 +73,10 @@ class PenetrationDepthSolver {
   /// The penetrated body's surface at this step: hierarchy and smoothed vertex normals.
   struct Surface {
     SurfaceBvh bvh;
-    std::vector<Vec3> vertex_normals;         ///< valid where normal_call equals the call counter
-    std::vector<std::uint64_t> normal_call;   ///< per vertex: call counter value of its normal
-    std::uint64_t built_in_call = 0;  ///< call counter value when last built or refitted
-    int refits = 0;                   ///< refits since the last full build
+    std::vector<Vec3> vertex_normals;         ///< valid where normal_epoch equals bvh.pose_epoch()
+    std::vector<std::uint64_t> normal_epoch;  ///< per vertex: bvh.pose_epoch() of its normal
+    std::uint64_t built_in_call = 0;  ///< call counter value when last brought to this call's positions
+    int refits = 0;                   ///< full refits since the last build
   };
 
   Surface& surface_of(std::span<const CollisionBody> bodies, int body);

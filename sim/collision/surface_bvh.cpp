@@ -1,6 +1,7 @@
 #include "sim/collision/surface_bvh.h"
 
 #include <algorithm>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -72,69 +73,122 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   nodes_.clear();
   order_.resize(static_cast<size_t>(n));
   centroids_.resize(static_cast<size_t>(n));
-  boxes_.resize(static_cast<size_t>(n));
   for (int t = 0; t < n; ++t) {
-    Aabb box;
-    for (int k = 0; k < 3; ++k) box.extend(corner(t, k));
-    boxes_[static_cast<size_t>(t)] = box;
     centroids_[static_cast<size_t>(t)] = (corner(t, 0) + corner(t, 1) + corner(t, 2)) / 3.0;
     order_[static_cast<size_t>(t)] = t;
   }
-  if (n == 0) return;
+  ++pose_epoch_;
+  triangle_boxes_.resize(static_cast<size_t>(n));
+  prepared_.resize(static_cast<size_t>(n));
+  if (n == 0) {
+    remember_fitted_positions();
+    slack_ = 0.0;
+    return;
+  }
   nodes_.reserve(static_cast<size_t>(2 * (n / kLeafSize + 1)));
   build_node(0, n, 0);
-  prepare_triangles();
+  leaf_epoch_.assign(nodes_.size(), 0);
+  full_refit();
 }
 
-void SurfaceBvh::prepare_triangles() {
-  prepared_.resize(order_.size());
-  for (size_t j = 0; j < order_.size(); ++j) {
-    const int tri = order_[j];
-    prepared_[j] = PreparedTriangle::of(corner(tri, 0), corner(tri, 1), corner(tri, 2));
+void SurfaceBvh::remember_fitted_positions() {
+  const std::vector<int>& surface = mesh_->surface_vertices();
+  fitted_positions_.resize(surface.size());
+  double scale = 0.0;
+  for (size_t k = 0; k < surface.size(); ++k) {
+    const Vec3& p = x_[static_cast<size_t>(surface[k])];
+    fitted_positions_[k] = p;
+    scale = std::max(scale, p.cwiseAbs().maxCoeff());
+  }
+  fitted_scale_ = scale;
+}
+
+void SurfaceBvh::fit_leaf(const Node& node) const {
+  for (int j = node.first; j < node.first + node.count; ++j) {
+    const int tri = order_[static_cast<size_t>(j)];
+    const Vec3 &a = corner(tri, 0), &b = corner(tri, 1), &c = corner(tri, 2);
+    Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
+    box.min = a.cwiseMin(b).cwiseMin(c);
+    box.max = a.cwiseMax(b).cwiseMax(c);
+    prepared_[static_cast<size_t>(j)] = PreparedTriangle::of(a, b, c);
   }
 }
 
-void SurfaceBvh::refit(std::span<const Vec3> x) {
-  assert(mesh_ != nullptr);
-  x_ = x;
-  const int n = mesh_->surface_triangle_count();
-  for (int t = 0; t < n; ++t) {
-    Aabb box;
-    for (int k = 0; k < 3; ++k) box.extend(corner(t, k));
-    boxes_[static_cast<size_t>(t)] = box;
-  }
+void SurfaceBvh::full_refit() {
   // Children come after their parent in depth-first order: a reverse sweep refits bottom-up.
   for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
     Node& node = nodes_[static_cast<size_t>(i)];
     Aabb box;
     if (node.count > 0) {
+      fit_leaf(node);
+      leaf_epoch_[static_cast<size_t>(i)] = pose_epoch_;
       for (int j = node.first; j < node.first + node.count; ++j) {
-        const Aabb& b = boxes_[static_cast<size_t>(order_[static_cast<size_t>(j)])];
-        box.extend(b.min);
-        box.extend(b.max);
+        const Aabb& b = triangle_boxes_[static_cast<size_t>(j)];
+        box.min = box.min.cwiseMin(b.min);
+        box.max = box.max.cwiseMax(b.max);
       }
     } else {
       for (const int c : {i + 1, node.first}) {
-        box.extend(nodes_[static_cast<size_t>(c)].box.min);
-        box.extend(nodes_[static_cast<size_t>(c)].box.max);
+        box.min = box.min.cwiseMin(nodes_[static_cast<size_t>(c)].box.min);
+        box.max = box.max.cwiseMax(nodes_[static_cast<size_t>(c)].box.max);
       }
     }
     node.box = box;
   }
-  prepare_triangles();
+  remember_fitted_positions();
+  slack_ = 0.0;
+}
+
+SurfaceBvhUpdate SurfaceBvh::refit(std::span<const Vec3> x, double lazy_limit_edges, bool rebuild_when_full) {
+  assert(mesh_ != nullptr);
+  x_ = x;
+  // Largest motion of a surface vertex since the boxes were fitted (max-norm); NaN counts as far.
+  const std::vector<int>& surface = mesh_->surface_vertices();
+  const double limit = lazy_limit_edges * mesh_->mean_edge_length();
+  double delta = 0.0;
+  bool beyond = false;
+  for (size_t k = 0; k < surface.size(); ++k) {
+    const double m = (x[static_cast<size_t>(surface[k])] - fitted_positions_[k]).cwiseAbs().maxCoeff();
+    beyond = beyond || !(m <= limit);
+    delta = std::max(delta, m);
+  }
+  if (!beyond && delta == 0.0) {
+    // Unchanged only if no lazy step since the fit: the leaves may hold another pose's data.
+    if (slack_ == 0.0) return SurfaceBvhUpdate::unchanged;
+    ++pose_epoch_;  // back at the fitted positions: exact node boxes, leaves refitted on demand
+    slack_ = 0.0;
+    return SurfaceBvhUpdate::lazy;
+  }
+  ++pose_epoch_;
+  if (!beyond && !nodes_.empty()) {
+    // Every corner lies within delta of where the boxes were fitted. The margins cover the rounding
+    // of delta itself and of box +- slack (coordinates up to fitted_scale_).
+    slack_ = delta * (1.0 + 1e-12) + 1e-14 * fitted_scale_;
+    return SurfaceBvhUpdate::lazy;
+  }
+  if (rebuild_when_full) {
+    build(*mesh_, x);
+    return SurfaceBvhUpdate::rebuild;
+  }
+  full_refit();
+  return SurfaceBvhUpdate::refit;
+}
+
+Aabb SurfaceBvh::query_box(int n) const {
+  const Aabb& box = nodes_[static_cast<size_t>(n)].box;
+  if (slack_ == 0.0) return box;
+  Aabb inflated;
+  inflated.min = box.min.array() - slack_;
+  inflated.max = box.max.array() + slack_;
+  return inflated;
 }
 
 int SurfaceBvh::build_node(int begin, int end, int depth) {
+  // Boxes are fitted afterwards (full_refit); the split needs only the centroids' bounds.
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back(Node{});
-  Aabb box, centroid_box;
-  for (int i = begin; i < end; ++i) {
-    const int t = order_[static_cast<size_t>(i)];
-    box.extend(boxes_[static_cast<size_t>(t)].min);
-    box.extend(boxes_[static_cast<size_t>(t)].max);
-    centroid_box.extend(centroids_[static_cast<size_t>(t)]);
-  }
-  nodes_[static_cast<size_t>(index)].box = box;
+  Aabb centroid_box;
+  for (int i = begin; i < end; ++i) centroid_box.extend(centroids_[static_cast<size_t>(order_[static_cast<size_t>(i)])]);
   // The stack of a query holds at most two entries per level.
   if (end - begin <= kLeafSize || 2 * depth + 4 >= kMaxStack) {
     nodes_[static_cast<size_t>(index)].first = begin;
@@ -169,7 +223,7 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
   double stack_t[kMaxStack];
   int top = 0;
   double t_enter = 0.0;
-  if (!ray.hits(nodes_[0].box, best_t, t_enter)) return false;
+  if (!ray.hits(query_box(0), best_t, t_enter)) return false;
   stack[top] = 0;
   stack_t[top++] = t_enter;
   while (top > 0) {
@@ -181,8 +235,8 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
       // Visit the nearer child first (pushed last).
       const int l = n + 1, r = node.first;
       double tl = 0.0, tr = 0.0;
-      const bool hl = ray.hits(nodes_[static_cast<size_t>(l)].box, best_t, tl);
-      const bool hr = ray.hits(nodes_[static_cast<size_t>(r)].box, best_t, tr);
+      const bool hl = ray.hits(query_box(l), best_t, tl);
+      const bool hr = ray.hits(query_box(r), best_t, tr);
       if (hl && hr) {
         const bool left_first = tl <= tr;
         stack[top] = left_first ? r : l;
@@ -198,6 +252,7 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
       }
       continue;
     }
+    ensure_leaf(n);
     for (int i = node.first; i < node.first + node.count; ++i) {
       const int tri = order_[static_cast<size_t>(i)];
       if (excluded(tri, exclude_a, exclude_b)) continue;
@@ -227,22 +282,33 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
   const int total = static_cast<int>(origins.size());
   for (int begin = 0; begin < total; begin += kFanChunk) {
     const int m = std::min(kFanChunk, total - begin);
-    Aabb fan, seg[kFanChunk];
+    // Segment boxes as separate coordinate arrays, so a triangle box is tested against all of them
+    // without branches (the outcome is hard to predict).
+    double seg_min[3][kFanChunk], seg_max[3][kFanChunk];
     Vec3 dir[kFanChunk];
     double best_t[kFanChunk], dir_squared[kFanChunk];
     int best_tri[kFanChunk];
     Vec3 best_bary[kFanChunk];
+    Aabb fan;
     fan.extend(end);
     for (int i = 0; i < m; ++i) {
       const Vec3& o = origins[static_cast<size_t>(begin + i)];
       fan.extend(o);
-      seg[i].extend(o);
-      seg[i].extend(end);
+      for (int k = 0; k < 3; ++k) {
+        seg_min[k][i] = std::min(o[k], end[k]);
+        seg_max[k][i] = std::max(o[k], end[k]);
+      }
       dir[i] = end - o;
       dir_squared[i] = dir[i].squaredNorm();
       best_t[i] = 1.0;
       best_tri[i] = -1;
       best_bary[i] = Vec3::Zero();
+    }
+    // Node boxes are inflated by slack_ (lazy refit): inflate the fan's box instead.
+    Aabb node_query = fan;
+    if (slack_ > 0.0) {
+      node_query.min.array() -= slack_;
+      node_query.max.array() += slack_;
     }
     // Every node and triangle whose box meets the fan's box; a triangle is tested against each
     // segment whose own box it meets. The smallest (t, triangle) per segment is kept, as the
@@ -253,20 +319,27 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
     while (top > 0) {
       const int n = stack[--top];
       const Node& node = nodes_[static_cast<size_t>(n)];
-      if (!node.box.overlaps(fan)) continue;
+      if (!node.box.overlaps(node_query)) continue;
       if (node.count == 0) {
         stack[top++] = node.first;
         stack[top++] = n + 1;
         continue;
       }
+      ensure_leaf(n);
       for (int j = node.first; j < node.first + node.count; ++j) {
-        const int tri = order_[static_cast<size_t>(j)];
-        const Aabb& box = boxes_[static_cast<size_t>(tri)];
+        const Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
         if (!box.overlaps(fan)) continue;
+        unsigned mask = 0;
         for (int i = 0; i < m; ++i) {
-          if (!box.overlaps(seg[i]) || excluded(tri, exclude_origins[static_cast<size_t>(begin + i)], exclude_end)) {
-            continue;
-          }
+          const bool meets = (box.min[0] <= seg_max[0][i]) & (seg_min[0][i] <= box.max[0]) &
+                             (box.min[1] <= seg_max[1][i]) & (seg_min[1][i] <= box.max[1]) &
+                             (box.min[2] <= seg_max[2][i]) & (seg_min[2][i] <= box.max[2]);
+          mask |= static_cast<unsigned>(meets) << i;
+        }
+        const int tri = order_[static_cast<size_t>(j)];
+        for (; mask != 0; mask &= mask - 1) {
+          const int i = std::countr_zero(mask);
+          if (excluded(tri, exclude_origins[static_cast<size_t>(begin + i)], exclude_end)) continue;
           TriangleHit h;
           if (ray_triangle_intersection(origins[static_cast<size_t>(begin + i)], dir[i], dir_squared[i],
                                         prepared_[static_cast<size_t>(j)], 0.0, best_t[i], h)) {
@@ -305,11 +378,11 @@ bool SurfaceBvh::nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest
   while (top > 0) {
     const int n = stack[--top];
     const Node& node = nodes_[static_cast<size_t>(n)];
-    if (box_distance_squared(p, node.box) > best_d2) continue;
+    if (box_distance_squared(p, query_box(n)) > best_d2) continue;
     if (node.count == 0) {
       const int l = n + 1, r = node.first;
-      const double dl = box_distance_squared(p, nodes_[static_cast<size_t>(l)].box);
-      const double dr = box_distance_squared(p, nodes_[static_cast<size_t>(r)].box);
+      const double dl = box_distance_squared(p, query_box(l));
+      const double dr = box_distance_squared(p, query_box(r));
       if (dl <= dr) {
         stack[top++] = r;
         stack[top++] = l;
@@ -319,10 +392,11 @@ bool SurfaceBvh::nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest
       }
       continue;
     }
+    ensure_leaf(n);
     for (int i = node.first; i < node.first + node.count; ++i) {
       const int tri = order_[static_cast<size_t>(i)];
       if (excluded(tri, exclude, -1)) continue;
-      if (box_distance_squared(p, boxes_[static_cast<size_t>(tri)]) > best_d2) continue;
+      if (box_distance_squared(p, triangle_boxes_[static_cast<size_t>(i)]) > best_d2) continue;
       const Vec3 w = closest_point_on_triangle_barycentric(p, corner(tri, 0), corner(tri, 1), corner(tri, 2));
       const Vec3 q = w[0] * corner(tri, 0) + w[1] * corner(tri, 1) + w[2] * corner(tri, 2);
       const double d2 = (q - p).squaredNorm();

@@ -1,17 +1,31 @@
 // Bounding volume hierarchy over the surface triangles of one body at its current positions: the
 // accelerator of stage 2 (edge-surface intersections, the contact-triangle ray, nearest surface
-// point). Rebuilt each step for every penetrated body; buffers are reused, so a rebuild allocates
-// nothing once they have grown.
+// point). Buffers are reused, so neither build nor refit allocates once they have grown.
 //
-// Design note. Built per penetrated body and refitted (boxes recomputed bottom-up) on later steps;
-// rebuilt when the mesh changes or every few steps (PenetrationDepthOptions). Median split on the longest axis of the triangle centroids, up to 4 triangles per
-// leaf, nodes in depth-first order (left child follows its parent). Queries keep an explicit stack
-// of fixed size (the median split bounds the depth by log2 of the triangle count). Ties between
-// equally near triangles go to the smaller triangle index, so results do not depend on the tree.
-// The fan query (all edges ending at one border point) visits every node whose box meets the
-// fan's box instead of ordering by entry parameter: it keeps the same minimum per edge.
+// Design note. Built per penetrated body; rebuilt when the mesh changes or after a number of full
+// refits (PenetrationDepthOptions). Median split on the longest axis of the triangle centroids, up
+// to 4 triangles per leaf, nodes in depth-first order (left child follows its parent). Queries keep
+// an explicit stack of fixed size (the median split bounds the depth by log2 of the triangle count).
+// Ties between equally near triangles go to the smaller triangle index, so results do not depend on
+// the tree, the order of visits or how loose the boxes are: every box only culls conservatively.
+//
+// Lazy refit. A refit first measures how far any surface vertex moved since the node boxes were
+// last fitted (delta, max-norm). Zero, with no lazy step since the fit: nothing to do (a still
+// body). Up to a limit (a fraction of the mean edge
+// length): the node boxes are kept and every query inflates them by delta (plus a rounding
+// margin), which still contains the current triangles; the exact per-triangle data (box, prepared
+// corner and edges) of a leaf is recomputed the first time a query reaches that leaf in this pose.
+// Beyond the limit: a full bottom-up refit (or a rebuild when one is due). A step with a few local
+// contacts on a large, slowly deforming surface (the tissue under a probe) then costs one pass over
+// the surface vertices plus the leaves actually visited, instead of a refit of the whole surface.
+// Queries are const but fill that per-leaf cache (mutable): a SurfaceBvh is not shared between
+// threads.
+//
+// The fan query (all edges ending at one border point) visits every node whose box meets the fan's
+// box instead of ordering by entry parameter: it keeps the same minimum per edge.
 #pragma once
 
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <vector>
@@ -31,18 +45,23 @@ struct SurfacePoint {
   double distance_squared = 0.0;      ///< squared distance to the query point (nearest query), m^2
 };
 
+/// What SurfaceBvh::refit did to follow new positions.
+enum class SurfaceBvhUpdate {
+  unchanged,  ///< no surface vertex moved: every cached box and triangle is still exact
+  lazy,       ///< node boxes kept, inflated by the motion; leaves refitted when a query reaches them
+  refit,      ///< all boxes recomputed bottom-up on the same tree
+  rebuild,    ///< a new tree (as build())
+};
+
 class SurfaceBvh {
  public:
   /// Builds the hierarchy over mesh's surface triangles at positions x (which must outlive queries).
   void build(const TetMesh& mesh, std::span<const Vec3> x);
-  /// Keeps the tree of the last build() and recomputes its boxes for new positions x of the same
-  /// mesh: O(n), always correct, slower queries as the surface deforms away from the build pose.
-  void refit(std::span<const Vec3> x);
-
-  /// Calls visit(point) for every surface triangle crossed by the segment a + t (b - a), t in [0,1],
-  /// skipping triangles that contain vertex exclude_a or exclude_b (-1: none).
-  template <class Visit>
-  void for_each_segment_hit(const Vec3& a, const Vec3& b, int exclude_a, int exclude_b, Visit&& visit) const;
+  /// Follows new positions x of the same mesh (see the design note): keeps everything if nothing
+  /// moved, inflates the node boxes if the surface moved by at most `lazy_limit_edges` mean edge
+  /// lengths since they were fitted, else refits every box, or rebuilds the tree if
+  /// `rebuild_when_full` is set. Always correct; only query speed depends on the choice.
+  SurfaceBvhUpdate refit(std::span<const Vec3> x, double lazy_limit_edges = 0.0, bool rebuild_when_full = false);
 
   /// First triangle hit by origin + t dir, t in [0, t_max] (smallest t); false if the ray misses.
   /// Triangles containing vertex exclude_a or exclude_b (-1: none) are skipped.
@@ -77,10 +96,15 @@ class SurfaceBvh {
   const TetMesh* mesh() const { return mesh_; }
   /// The positions the hierarchy was built for (m).
   std::span<const Vec3> positions() const { return x_; }
+  /// Changes whenever the positions' values change (build, or a refit that was not `unchanged`):
+  /// data derived from the positions (vertex normals) stays valid while it is the same.
+  std::uint64_t pose_epoch() const { return pose_epoch_; }
+  /// Amount by which queries currently inflate the node boxes (m); 0 after a build or full refit.
+  double slack() const { return slack_; }
 
  private:
   struct Node {
-    Aabb box;
+    Aabb box;        ///< bounds at the last full fit (queries inflate it by slack_)
     int first = 0;   ///< leaf: first entry in order_; inner: index of the right child
     int count = 0;   ///< leaf: number of triangles (> 0); inner: 0
   };
@@ -89,17 +113,34 @@ class SurfaceBvh {
   static constexpr int kFanChunk = 16;
 
   int build_node(int begin, int end, int depth);
+  void full_refit();
+  void fit_leaf(const Node& node) const;
+  /// Makes the exact data (triangle boxes, prepared triangles) of leaf `n` current.
+  void ensure_leaf(int n) const {
+    if (leaf_epoch_[static_cast<size_t>(n)] != pose_epoch_) {
+      fit_leaf(nodes_[static_cast<size_t>(n)]);
+      leaf_epoch_[static_cast<size_t>(n)] = pose_epoch_;
+    }
+  }
+  /// Node n's box as queries see it: inflated by slack_.
+  Aabb query_box(int n) const;
+  void remember_fitted_positions();
   bool excluded(int tri, int exclude_a, int exclude_b) const;
   const Vec3& corner(int tri, int k) const;
 
   const TetMesh* mesh_ = nullptr;
   std::span<const Vec3> x_;
   std::vector<Node> nodes_;
-  std::vector<int> order_;
-  std::vector<Vec3> centroids_;
-  std::vector<Aabb> boxes_;
-  std::vector<PreparedTriangle> prepared_;  ///< per entry of order_ (leaf order): corner and edges
-  void prepare_triangles();
+  std::vector<int> order_;                  ///< leaf order -> surface triangle index
+  std::vector<Vec3> centroids_;             ///< build scratch, per triangle
+  std::vector<Vec3> fitted_positions_;      ///< per surface vertex: its position when the boxes were fitted
+  double fitted_scale_ = 0.0;               ///< largest |coordinate| of those positions (m)
+  double slack_ = 0.0;                      ///< inflation of node boxes for queries (m)
+  std::uint64_t pose_epoch_ = 0;
+  // Per entry of order_ (leaf order), valid for a leaf whose leaf_epoch_ equals pose_epoch_.
+  mutable std::vector<Aabb> triangle_boxes_;
+  mutable std::vector<PreparedTriangle> prepared_;  ///< corner and edges (triangle_queries.h)
+  mutable std::vector<std::uint64_t> leaf_epoch_;   ///< per node
 };
 
 }  // namespace pliant

@@ -173,6 +173,91 @@ TEST(SurfaceBvh, FanOfSegmentsMatchesSingleQueriesAndBruteForce) {
   EXPECT_GT(hits, 500);
 }
 
+// Every query of `refitted` gives bit for bit what a hierarchy freshly built at the same positions
+// gives: rays (bounded and not), fans of segments and nearest points around the surface.
+void expect_same_queries(const SurfaceBvh& refitted, const TetMesh& mesh, std::span<const Vec3> x, unsigned seed) {
+  SurfaceBvh fresh;
+  fresh.build(mesh, x);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.7, 0.7), r(-0.15, 0.15);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 o(u(rng), 0.7 * u(rng), 0.5 * u(rng));
+    const Vec3 d = Vec3(g(rng), g(rng), g(rng)).normalized();
+    for (const double t_max : {std::numeric_limits<double>::max(), 0.1}) {
+      SurfacePoint a, b;
+      const bool fa = refitted.first_ray_hit(o, d, -1, a, t_max);
+      ASSERT_EQ(fa, fresh.first_ray_hit(o, d, -1, b, t_max)) << i;
+      if (fa) {
+        EXPECT_EQ(a.triangle, b.triangle) << i;
+        EXPECT_EQ(a.t, b.t) << i;
+        EXPECT_EQ(a.barycentric, b.barycentric) << i;
+      }
+    }
+    SurfacePoint na, nb;
+    ASSERT_TRUE(refitted.nearest_point(o, -1, na));
+    ASSERT_TRUE(fresh.nearest_point(o, -1, nb));
+    EXPECT_EQ(na.triangle, nb.triangle) << i;
+    EXPECT_EQ(na.distance_squared, nb.distance_squared) << i;
+    std::vector<Vec3> origins;
+    for (int k = 0; k < 6; ++k) origins.push_back(o + Vec3(r(rng), r(rng), r(rng)));
+    const std::vector<int> none(origins.size(), -1);
+    std::vector<SurfacePoint> fan_a(origins.size()), fan_b(origins.size());
+    std::vector<char> found_a(origins.size()), found_b(origins.size());
+    refitted.first_segment_hits(o, -1, origins, none, fan_a, found_a);
+    fresh.first_segment_hits(o, -1, origins, none, fan_b, found_b);
+    for (size_t k = 0; k < origins.size(); ++k) {
+      ASSERT_EQ(found_a[k], found_b[k]) << i << " " << k;
+      if (!found_a[k]) continue;
+      EXPECT_EQ(fan_a[k].triangle, fan_b[k].triangle) << i << " " << k;
+      EXPECT_EQ(fan_a[k].t, fan_b[k].t) << i << " " << k;
+      EXPECT_EQ(fan_a[k].barycentric, fan_b[k].barycentric) << i << " " << k;
+    }
+  }
+}
+
+TEST(SurfaceBvh, RefitFollowsEveryPoseExactlyAsAFreshBuild) {
+  // One hierarchy follows a sequence of poses: small motions (lazy: inflated node boxes, leaves
+  // refitted on demand), a return to the fitted pose, a repeated pose, and large motions (full
+  // refit or rebuild). After each refit every query equals a fresh build's.
+  const auto mesh = make_box_mesh({Vec3(1.0, 0.6, 0.4), 10, 6, 4});
+  const auto a = jittered(*mesh, 0.02, 21);
+  std::vector<Vec3> small = a, large = a, stretched = a;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (size_t i = 0; i < a.size(); ++i) {
+    small[i] += 2e-3 * Vec3(u(rng), u(rng), u(rng));
+    large[i] += Vec3(0.05, -0.02, 0.01) + 0.02 * Vec3(u(rng), u(rng), u(rng));
+    stretched[i] = Vec3(1.3 * a[i].x(), a[i].y(), 0.8 * a[i].z());
+  }
+  SurfaceBvh bvh;
+  bvh.build(*mesh, a);
+  struct Step {
+    const std::vector<Vec3>* x;
+    bool rebuild_when_full;
+    SurfaceBvhUpdate expected;
+  };
+  const double limit = 0.25;  // mean edge lengths (0.1 m cells: the small motion is lazy)
+  const Step steps[] = {
+      {&a, false, SurfaceBvhUpdate::unchanged}, {&small, false, SurfaceBvhUpdate::lazy},
+      {&a, false, SurfaceBvhUpdate::lazy},      {&a, false, SurfaceBvhUpdate::unchanged},
+      {&small, false, SurfaceBvhUpdate::lazy},  {&small, false, SurfaceBvhUpdate::lazy},
+      {&large, false, SurfaceBvhUpdate::refit}, {&a, true, SurfaceBvhUpdate::rebuild},
+      {&small, true, SurfaceBvhUpdate::lazy},   {&stretched, false, SurfaceBvhUpdate::refit},
+      {&small, false, SurfaceBvhUpdate::refit}, {&large, true, SurfaceBvhUpdate::rebuild},
+  };
+  unsigned seed = 1;
+  for (const Step& step : steps) {
+    SCOPED_TRACE(seed);
+    EXPECT_EQ(bvh.refit(*step.x, limit, step.rebuild_when_full), step.expected);
+    expect_same_queries(bvh, *mesh, *step.x, seed++);
+  }
+  // A limit of zero refits in full whenever anything moved.
+  EXPECT_EQ(bvh.refit(small, 0.0), SurfaceBvhUpdate::refit);
+  expect_same_queries(bvh, *mesh, small, seed++);
+  EXPECT_EQ(bvh.refit(small, 0.0), SurfaceBvhUpdate::unchanged);
+}
+
 TEST(ContactTriangle, BoundedSearchGivesTheUnboundedAnswer) {
   // find_contact_triangle with a bound at or above the first hit, or a bound below every hit (it
   // then searches again unbounded), returns exactly what the unbounded search returns.

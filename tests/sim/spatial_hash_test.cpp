@@ -333,5 +333,33 @@ TEST(SpatialHash, NoAllocationPerStepAfterWarmUp) {
   }
 }
 
+TEST(CollisionFilter, RebuiltInPlaceEqualsFromBodiesWithoutAllocating) {
+  // The world rebuilds its filter every step: in place it must equal a new filter from the same
+  // bodies (groups, masks, active and self-collision flags), and allocate nothing once grown.
+  std::mt19937 rng(12);
+  std::uniform_int_distribution<unsigned> bits(0u, 3u);
+  std::bernoulli_distribution coin(0.3);
+  CollisionFilter in_place;
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<CollisionBody> bodies(static_cast<size_t>(1 + trial % 6));
+    for (auto& b : bodies) {
+      b.active = !coin(rng);
+      b.self_collision = coin(rng);
+      b.collision_group = 1u << bits(rng);
+      b.collision_mask = coin(rng) ? ~0u : (1u << bits(rng));
+    }
+    const CollisionFilter fresh = CollisionFilter::from_bodies(bodies);
+    const long long before = testing::g_allocations.load();
+    in_place.assign_from_bodies(bodies);
+    if (trial >= 6) {  // grown to 6 bodies
+      EXPECT_EQ(testing::g_allocations.load(), before) << trial;
+    }
+    ASSERT_EQ(in_place.body_count(), fresh.body_count());
+    for (int a = 0; a < fresh.body_count(); ++a) {
+      for (int b = 0; b < fresh.body_count(); ++b) EXPECT_EQ(in_place.allowed(a, b), fresh.allowed(a, b)) << a << b;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace pliant
