@@ -24,6 +24,14 @@
 namespace pliant {
 namespace {
 
+// One window of the over-time profile (--window).
+struct BenchWindow {
+  double time_begin = 0.0, time_end = 0.0;  ///< s of simulated time
+  StepTimeStats step, integrate, detect, depth, respond, report;
+  long colliding_sum = 0;
+  int awake_bodies = 0;  ///< deformable bodies awake after the window's last step
+};
+
 // One row of the table.
 struct BenchRow {
   std::string scene;
@@ -34,6 +42,8 @@ struct BenchRow {
   StepTimeStats step, integrate, detect, depth, respond, report;
   StepTimeStats respond_with_contact, respond_without_contact;
   double colliding_mean = 0.0;
+  int deformable_bodies = 0;
+  std::vector<BenchWindow> windows;
   std::string fault;
 };
 
@@ -57,6 +67,7 @@ BenchRow bench_scene(const Scene& scene, const std::string& variant, const Bench
   for (const Body* body : runner.world().bodies()) {
     if (body == nullptr) continue;
     ++row.bodies;
+    if (!body->is_kinematic()) ++row.deformable_bodies;
     row.vertices += body->mesh->vertex_count();
     row.tets += body->mesh->tet_count();
     row.surface_triangles += body->mesh->surface_triangle_count();
@@ -83,6 +94,22 @@ BenchRow bench_scene(const Scene& scene, const std::string& variant, const Bench
     (colliding > 0 ? row.respond_with_contact : row.respond_without_contact).add(sec(StepStage::respond));
     colliding_sum += colliding;
     ++row.steps;
+    if (options.window_steps > 0) {
+      if ((row.steps - 1) % options.window_steps == 0) {
+        row.windows.emplace_back();
+        row.windows.back().time_begin = runner.time() - scene.time_step;
+      }
+      BenchWindow& w = row.windows.back();
+      w.time_end = runner.time();
+      w.step.add(profiler.total());
+      w.integrate.add(sec(StepStage::integrate));
+      w.detect.add(sec(StepStage::detect));
+      w.depth.add(sec(StepStage::depth));
+      w.respond.add(sec(StepStage::respond));
+      w.report.add(sec(StepStage::report));
+      w.colliding_sum += colliding;
+      w.awake_bodies = row.deformable_bodies - runner.report().sleeping_bodies;
+    }
   }
   row.colliding_mean =
       row.steps > 0 ? static_cast<double>(colliding_sum) / static_cast<double>(row.steps) : 0.0;
@@ -94,7 +121,24 @@ nlohmann::json p50_ms(const StepTimeStats& s) {
   return s.count() ? nlohmann::json(s.percentile(0.5) * 1e3) : nullptr;
 }
 
+nlohmann::json window_json(const BenchWindow& w) {
+  return {{"time_begin_s", w.time_begin},
+          {"time_end_s", w.time_end},
+          {"steps", w.step.count()},
+          {"step_ms_p50", p50_ms(w.step)},
+          {"integrate_ms_p50", p50_ms(w.integrate)},
+          {"detect_ms_p50", p50_ms(w.detect)},
+          {"depth_ms_p50", p50_ms(w.depth)},
+          {"respond_ms_p50", p50_ms(w.respond)},
+          {"report_ms_p50", p50_ms(w.report)},
+          {"awake_bodies", w.awake_bodies},
+          {"colliding_vertices_mean",
+           w.step.count() ? static_cast<double>(w.colliding_sum) / static_cast<double>(w.step.count()) : 0.0}};
+}
+
 nlohmann::json row_json(const BenchRow& r) {
+  nlohmann::json windows = nlohmann::json::array();
+  for (const BenchWindow& w : r.windows) windows.push_back(window_json(w));
   return {{"scene", r.scene},
           {"variant", r.variant},
           {"method", r.method},
@@ -115,6 +159,8 @@ nlohmann::json row_json(const BenchRow& r) {
           {"respond_ms_p50_without_contact", p50_ms(r.respond_without_contact)},
           {"steps_without_contact", r.respond_without_contact.count()},
           {"colliding_vertices_mean", r.colliding_mean},
+          {"deformable_bodies", r.deformable_bodies},
+          {"windows", windows},
           {"fault", r.fault.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.fault)}};
 }
 
@@ -135,6 +181,27 @@ const char* const kColumns[] = {"step_ms_p50",
                                 "report_ms_p50",
                                 "respond_ms_p50_with_contact",
                                 "respond_ms_p50_without_contact"};
+
+// The over-time profile of one row: a line per window, under the row.
+void log_windows(const nlohmann::json& row, std::ostream& log) {
+  log << "  " << std::left << std::setw(14) << "t (s)" << std::right;
+  for (const char* h : {"step50", "integ", "detect", "depth", "respond", "report", "awake", "collide"})
+    log << std::setw(9) << h;
+  log << "   (per window, ms p50; awake of " << row["deformable_bodies"] << " deformable bodies at its end;"
+      << " colliding vertices mean)\n";
+  for (const auto& w : row["windows"]) {
+    std::ostringstream t;
+    t << std::fixed << std::setprecision(3) << w["time_begin_s"].get<double>() << "-"
+      << w["time_end_s"].get<double>();
+    log << "  " << std::left << std::setw(14) << t.str() << std::right;
+    for (const char* c : {"step_ms_p50", "integrate_ms_p50", "detect_ms_p50", "depth_ms_p50", "respond_ms_p50",
+                          "report_ms_p50"})
+      log << std::setw(9) << cell(w[c]);
+    log << std::setw(9) << w["awake_bodies"].get<int>() << std::setw(9)
+        << std::llround(w["colliding_vertices_mean"].get<double>()) << "\n";
+  }
+  log << std::flush;
+}
 
 std::vector<std::filesystem::path> shipped_scenes() {
   namespace fs = std::filesystem;
@@ -159,6 +226,7 @@ std::vector<std::filesystem::path> shipped_scenes() {
 int run_bench(const BenchOptions& options, std::ostream& log) {
   if (options.haptic) return run_haptic_bench(options, log);
   if (options.steps < 1) throw InputError(InputErrorKind::bad_value, "--steps", "must be at least 1");
+  if (options.window_steps < 0) throw InputError(InputErrorKind::bad_value, "--window", "must not be negative");
   std::vector<std::filesystem::path> files;
   for (const std::string& s : options.scenes) files.push_back(resolve_scene(s));
   if (files.empty()) files = shipped_scenes();
@@ -191,6 +259,7 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
           << row.tets << std::setw(8) << row.surface_triangles;
       for (const char* c : kColumns) log << std::setw(9) << cell(j[c]);
       log << (row.fault.empty() ? "" : "  FAILED: " + row.fault) << "\n" << std::flush;
+      if (!row.windows.empty()) log_windows(j, log);
     }
   }
 
@@ -198,6 +267,7 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
     const nlohmann::json doc = {{"steps", options.steps},
                                 {"warm_up_steps", options.warm_up_steps},
                                 {"clock", options.cpu_time ? "thread_cpu_time" : "steady_clock"},
+                                {"window_steps", options.window_steps},
                                 {"percentiles", "nearest rank"},
                                 {"rows", rows}};
     write_file_atomically(options.json, doc.dump(2) + "\n");

@@ -2,7 +2,8 @@
 // times for every shipped scene (assets/scenes/*.json and assets/scenes/paper/*.json), timed with
 // ClockStageProfiler on a SteadyClock. Stages that have nothing to do are shown apart: response
 // time in steps without contacts, and each scene that uses friction again with friction off
-// (docs/bench.md). `--haptic`: the haptic thread beside the physics loop (run_haptic_bench).
+// (docs/bench.md). `--window K`: the same per-stage profile per window of K steps, against
+// simulated time, with the number of awake bodies (issue 8 item 6). `--haptic`: the haptic thread beside the physics loop (run_haptic_bench).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -24,6 +25,9 @@ struct BenchOptions {
   std::string csv;                     ///< write the table as CSV here (empty: do not)
   bool friction_variants = true;       ///< add a friction-off row for scenes with friction
   bool cpu_time = false;               ///< time stages in thread CPU time, not wall time (shared machine)
+  /// Steps per window of the over-time profile (0: none): a sub-row per window with the stage
+  /// p50s, awake bodies and colliding vertices, so a settling scene shows its cost falling.
+  long window_steps = 0;
   bool haptic = false;                 ///< the haptic benchmark instead (run_haptic_bench)
   double seconds = 10.0;               ///< haptic benchmark: wall-clock seconds per scene
   bool realtime_priority = true;       ///< haptic benchmark: ask SCHED_FIFO for the haptic thread

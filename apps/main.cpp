@@ -64,6 +64,8 @@ int main(int argc, char** argv) {
   auto* experiment_duration_opt =
       experiment_cmd->add_option("--duration", experiment_duration, "Simulated time (s)")->check(CLI::PositiveNumber);
   experiment_cmd->add_flag("--quiet", experiment.quiet, "Print nothing on success");
+  experiment_cmd->add_flag("--cpu-time", experiment.cpu_time,
+                           "Time the stages in thread CPU time (a shared, loaded machine)");
   bool experiment_no_frames = false;
   experiment_cmd->add_flag("--no-frames", experiment_no_frames, "Write no side-by-side frames");
   experiment_cmd->add_option("--frame-rate", experiment.frame_rate, "Side-by-side frames per simulated second")
@@ -91,6 +93,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"surface", "penalty", "none"}));
   bench_cmd->add_flag("--no-variants", bench_no_variants, "No friction-off rows");
   bench_cmd->add_flag("--cpu-time", bench.cpu_time, "Time the stages in thread CPU time (a shared, loaded machine)");
+  bench_cmd->add_option("--window", bench.window_steps,
+                        "Also profile every K timed steps (stage p50s, awake bodies) against simulated time")
+      ->check(CLI::NonNegativeNumber);
   bool bench_no_rt = false;
   bench_cmd->add_flag("--haptic", bench.haptic,
                       "Haptic benchmark: physics back to back with the 1 kHz haptic thread beside it "

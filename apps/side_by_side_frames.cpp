@@ -1,5 +1,6 @@
 #include "apps/side_by_side_frames.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <map>
@@ -10,7 +11,6 @@
 #include "render/bitmap_font.h"
 #include "render/offscreen_renderer.h"
 #include "render/png_writer.h"
-#include "render/render_snapshot.h"
 #endif
 
 namespace pliant {
@@ -19,6 +19,12 @@ std::filesystem::path SideBySideFrames::frame_path(const std::filesystem::path& 
   std::ostringstream name;
   name << "frame_" << std::setw(6) << std::setfill('0') << index << ".png";
   return folder / name.str();
+}
+
+void share_field_range(RenderSnapshot& a, RenderSnapshot& b) {
+  const double lo = std::min(a.field_min, b.field_min), hi = std::max(a.field_max, b.field_max);
+  a.field_min = b.field_min = lo;
+  a.field_max = b.field_max = hi;
 }
 
 #ifdef PLIANT_HAS_RENDER
@@ -44,7 +50,9 @@ struct SideBySideFrames::Impl {
     return image;
   }
 
-  void write(long index, const RenderSnapshot* l, const RenderSnapshot* r) {
+  void write(long index, RenderSnapshot* l, RenderSnapshot* r) {
+    // One colour scale for both panels: the union of the two frames' field ranges.
+    if (l != nullptr && r != nullptr) share_field_range(*l, *r);
     if (!view.camera) {
       const RenderSnapshot* first = l != nullptr ? l : r;
       view.camera = frame_bounds(first->bounds(),
@@ -95,7 +103,7 @@ void SideBySideFrames::keep_left(const World& world, long index) {
 
 void SideBySideFrames::write_right(const World& world, long index) {
   if (!impl_) return;
-  const RenderSnapshot right = take_snapshot(world, impl_->options);
+  RenderSnapshot right = take_snapshot(world, impl_->options);
   auto it = impl_->left.find(index);
   impl_->write(index, it != impl_->left.end() ? &it->second : nullptr, &right);
   if (it != impl_->left.end()) impl_->left.erase(it);
@@ -103,7 +111,7 @@ void SideBySideFrames::write_right(const World& world, long index) {
 
 void SideBySideFrames::finish() {
   if (!impl_) return;
-  for (const auto& [index, snapshot] : impl_->left) impl_->write(index, &snapshot, nullptr);
+  for (auto& [index, snapshot] : impl_->left) impl_->write(index, &snapshot, nullptr);
   impl_->left.clear();
 }
 

@@ -2,7 +2,8 @@
 // the left and the penalty run on the right at the same simulated time, each panel labelled.
 // The two runs happen one after the other, so the left run's snapshots are kept in memory (copies
 // of the positions, a few MB) and each frame is rendered and written while the right run passes
-// its time. Both panels share one camera: the scene's, or one framing the first left snapshot.
+// its time. Both panels share one camera (the scene's, or one framing the first left snapshot)
+// and, in each frame, one colour scale for the displacement field (the union of the two ranges).
 // Without the renderer (PLIANT_RENDER=OFF) nothing is written and enabled() is false.
 #pragma once
 
@@ -12,8 +13,13 @@
 #include <string>
 
 #include "interaction/scene/scene.h"
+#include "render/render_snapshot.h"
 
 namespace pliant {
+
+/// Gives both snapshots the union of their colour-map ranges (field_min, field_max), so equal
+/// colours mean equal values in the two panels of a frame.
+void share_field_range(RenderSnapshot& a, RenderSnapshot& b);
 
 /// Size and cadence of the side-by-side frames.
 struct SideBySideSettings {

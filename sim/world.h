@@ -102,7 +102,6 @@ class World {
   CollisionFilter filter_;
   std::vector<VertexInTet> colliding_;
   std::vector<VertexContact> contacts_;
-  std::vector<double> sleep_speed_scratch_;
   std::vector<std::vector<Vec3>> saved_positions_, saved_velocities_;
   std::vector<Pose> saved_poses_;
   StepReport report_;

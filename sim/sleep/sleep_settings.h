@@ -1,28 +1,44 @@
 // Sleeping bodies (DESIGN.md "Model only what the scene requires"; docs/experiments.md
-// "Sleeping bodies"). A deformable body whose every vertex moves slower than `speed` (m/s) for
-// `time` (s) of simulated time in a row falls asleep: its velocities are set to zero and from then
-// on it is not integrated, and pairs between it and other bodies that do not move (sleeping
-// bodies, kinematic bodies that keep their pose) are not detected. Its state stays bit-identical
-// while it sleeps. A sleeping body counts as immovable in contact (like a fixed support), and it
-// wakes, within the same step, when a moving body touches it: a kinematic body that moved this
-// step (an instrument), or an awake deformable body with a vertex faster than `speed`. Waking
-// spreads to sleeping bodies whose bounding boxes overlap a woken one (a pile wakes together).
+// "Resting motion" and "Sleeping bodies"). A deformable body is at rest while no vertex has moved
+// farther than `speed` x `time` (the rest ball, 1 mm by default) from where it was when the rest
+// began: over `time` it moved slower than `speed` on average, read from its positions. Leaving the
+// ball restarts the rest there (a new anchor). Why positions, not the stored velocities: resting
+// on the contact surface, contact vertices carry stored velocities of 5-70 mm/s (fruits in the
+// dish) to 130 mm/s (the heavy cube) that do not move them (each step's response puts them back:
+// the vertices jitter by tenths of a millimetre around a fixed place), while a fastest-vertex speed
+// threshold cannot tell that from motion. Freezing a body moves none of its states of the last
+// `time` seconds by more than the ball's radius. A body at rest for `time` (s) of simulated time
+// falls asleep: its velocities are set to zero and from then on it is not integrated, and pairs
+// between it and other bodies that do not move (sleeping bodies, kinematic bodies that keep their
+// pose) are not detected. Its state stays bit-identical while it sleeps. A sleeping body counts as
+// immovable in contact (like a fixed support), and it wakes, within the same step, when a moving
+// body touches it: a kinematic body that moved this step (an instrument), or an awake deformable
+// body that left its rest ball in its last step (or has just been created or woken). Waking spreads
+// to sleeping bodies whose bounding boxes overlap a woken one (a pile wakes together).
 #pragma once
+
+#include <vector>
+
+#include "sim/math_types.h"
 
 namespace pliant {
 
 /// When bodies fall asleep; off by default in the library (scenes turn it on, see scene-format).
 struct SleepSettings {
   bool enabled = false;
-  double speed = 0.005;  ///< m/s, a body is at rest while its fastest vertex is slower than this
+  double speed = 0.005;  ///< m/s, at rest: slower than this on average over `time` (every vertex)
   double time = 0.2;     ///< s of simulated time at rest before the body falls asleep
+  /// m, the rest ball's radius: how far a vertex may move from the rest's anchor.
+  double rest_distance() const { return speed * time; }
   double wake_margin = 0.002;  ///< m, bounding boxes this close count as touching when waking spreads
 };
 
 /// A deformable body's sleep bookkeeping (kept in Body).
 struct SleepState {
   bool sleeping = false;
+  bool resting = false;        ///< still inside its rest ball after the last step (rest_time > 0)
   double rest_time = 0.0;      ///< s spent at rest so far (reset when the body moves or wakes)
+  std::vector<Vec3> rest_anchor;  ///< m, positions when the rest began (empty: not at rest)
   double elastic_energy = 0.0; ///< J, the body's elastic energy when it fell asleep (positions frozen)
   bool has_elastic_energy = false;
 };

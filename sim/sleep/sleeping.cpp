@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+
 namespace pliant {
 
 namespace {
@@ -35,13 +36,17 @@ Box bounds(const Body& body) {
   return b;
 }
 
-}  // namespace
-
-double max_vertex_speed(const Body& body) {
-  double v2 = 0.0;
-  for (const Vec3& v : body.velocities) v2 = std::max(v2, v.squaredNorm());
-  return std::sqrt(v2);
+// Every vertex within the rest ball around the rest's anchor (which must exist).
+bool within_rest_distance(const Body& body, const SleepSettings& settings) {
+  const auto& anchor = body.sleep.rest_anchor;
+  const double r2 = settings.rest_distance() * settings.rest_distance();
+  for (size_t v = 0; v < anchor.size(); ++v) {
+    if ((body.positions[v] - anchor[v]).squaredNorm() > r2) return false;
+  }
+  return true;
 }
+
+}  // namespace
 
 void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter) {
   const int n = static_cast<int>(bodies.size());
@@ -55,21 +60,20 @@ void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter
 
 void wake_body(Body& body) {
   body.sleep.sleeping = false;
+  body.sleep.resting = false;
   body.sleep.rest_time = 0.0;
+  body.sleep.rest_anchor.clear();
   body.sleep.has_elastic_energy = false;
 }
 
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
-                        const SleepSettings& settings, std::vector<double>& speed_scratch) {
-  // Speed of each awake deformable body, computed once when first needed (-1 = not yet).
-  speed_scratch.assign(bodies.size(), -1.0);
+                        const SleepSettings& settings) {
+  // An awake deformable body moves unless it stayed inside its rest ball in its last step.
   auto moves = [&](int index) {
     const Body* b = bodies[static_cast<size_t>(index)];
     if (b == nullptr || b->is_sleeping()) return false;
     if (b->is_kinematic()) return b->moved_this_step;
-    double& s = speed_scratch[static_cast<size_t>(index)];
-    if (s < 0.0) s = max_vertex_speed(*b);
-    return s >= settings.speed;
+    return !b->sleep.resting;
   };
   std::vector<int> woken;
   auto wake = [&](int index) {
@@ -102,25 +106,29 @@ int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& 
   for (size_t i = 0; i < bodies.size(); ++i) {
     Body* body = bodies[i];
     if (body == nullptr || body->is_kinematic()) continue;
+    SleepState& sleep = body->sleep;
     if (has_applied_force(*body)) {
-      if (body->is_sleeping()) wake_body(*body);
-      body->sleep.rest_time = 0.0;
+      wake_body(*body);
       continue;
     }
-    if (body->is_sleeping()) {
+    if (sleep.sleeping) {
       ++asleep;
       continue;
     }
-    if (max_vertex_speed(*body) < settings.speed) {
-      body->sleep.rest_time += dt;
+    const bool begun = sleep.rest_anchor.size() == body->positions.size();
+    sleep.resting = begun && within_rest_distance(*body, settings);
+    if (sleep.resting) {
+      sleep.rest_time += dt;
     } else {
-      body->sleep.rest_time = 0.0;
+      // New, woken, or a vertex left the ball: a rest begins here.
+      sleep.rest_time = 0.0;
+      sleep.rest_anchor = body->positions;  // reuses its capacity
     }
-    if (body->sleep.rest_time >= settings.time) {
-      body->sleep.sleeping = true;
+    if (sleep.rest_time >= settings.time) {
+      sleep.sleeping = true;
       for (Vec3& v : body->velocities) v.setZero();
-      body->sleep.has_elastic_energy = has_energy;
-      body->sleep.elastic_energy = has_energy && i < body_energy.size() ? body_energy[i].elastic : 0.0;
+      sleep.has_elastic_energy = has_energy;
+      sleep.elastic_energy = has_energy && i < body_energy.size() ? body_energy[i].elastic : 0.0;
       ++asleep;
     }
   }

@@ -18,23 +18,21 @@ namespace pliant {
 void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter);
 
 /// Wakes every sleeping body that a moving body touches in `colliding` (a kinematic body that
-/// moved this step, or an awake deformable body with a vertex faster than settings.speed), and
+/// moved this step, or an awake deformable body that left its rest ball in its last step), and
 /// then, transitively, sleeping bodies whose bounding boxes (grown by settings.wake_margin) overlap
-/// a woken body. Returns the number of bodies woken. `speed_scratch` is reused between steps.
+/// a woken body. Returns the number of bodies woken.
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
-                        const SleepSettings& settings, std::vector<double>& speed_scratch);
+                        const SleepSettings& settings);
 
 /// Wakes one body now (velocities stay zero; it is integrated from the next step on).
 void wake_body(Body& body);
 
-/// After a step of dt (s): advances each awake deformable body's rest time and puts bodies to
-/// sleep (velocities set to zero) once it reaches settings.time. `body_energy` is this step's
-/// report per slot; its elastic energy is kept for the reports while the body sleeps
-/// (`has_energy`: whether it was computed). Returns the number of bodies asleep after the update.
+/// After a step of dt (s): checks each awake deformable body against its rest ball
+/// (sleep_settings.h), advancing its rest time or restarting the rest with a new anchor, and puts
+/// bodies to sleep (velocities set to zero) once the rest time reaches settings.time.
+/// `body_energy` is this step's report per slot; its elastic energy is kept for the reports while
+/// the body sleeps (`has_energy`: whether it was computed). Returns the number of bodies asleep.
 int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& settings,
                  std::span<const EnergyReport> body_energy, bool has_energy);
-
-/// Largest vertex speed of a body (m/s).
-double max_vertex_speed(const Body& body);
 
 }  // namespace pliant

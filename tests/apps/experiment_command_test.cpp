@@ -124,6 +124,34 @@ TEST(BenchCommand, OneRowPerSceneAndFrictionVariant) {
   EXPECT_EQ(count_lines(out / "b.csv"), 1 + 4);
 }
 
+// --window K: one profile entry per K timed steps, back to back in simulated time (dt = 1 ms), each
+// with K steps and at most every deformable body awake (the sphere is the squeeze's only one).
+TEST(BenchCommand, WindowProfileCoversTheTimedStepsInOrder) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("bench_window");
+  fs::create_directories(out);
+  const CliResult r = run_cli("bench sphere_squeeze --steps 6 --warm-up 2 --window 3 --no-variants --json " +
+                              (out / "w.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json b = read_json(out / "w.json");
+  ASSERT_EQ(b["rows"].size(), 1u);
+  const auto& row = b["rows"][0];
+  EXPECT_EQ(row["deformable_bodies"], 1);
+  const auto& windows = row["windows"];
+  ASSERT_EQ(windows.size(), 2u);
+  // Warm-up steps end at 2 ms; the windows are 2-5 ms and 5-8 ms.
+  EXPECT_NEAR(windows[0]["time_begin_s"].get<double>(), 0.002, 1e-9);
+  EXPECT_NEAR(windows[0]["time_end_s"].get<double>(), 0.005, 1e-9);
+  EXPECT_NEAR(windows[1]["time_begin_s"].get<double>(), 0.005, 1e-9);
+  EXPECT_NEAR(windows[1]["time_end_s"].get<double>(), 0.008, 1e-9);
+  for (const auto& w : windows) {
+    EXPECT_EQ(w["steps"], 3);
+    EXPECT_GE(w["awake_bodies"].get<int>(), 0);
+    EXPECT_LE(w["awake_bodies"].get<int>(), 1);
+  }
+  EXPECT_NE(r.output.find("0.002-0.005"), std::string::npos) << r.output;
+}
+
 TEST(ExperimentCommand, BadInputExitsWith2) {
   if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
   const fs::path out = scratch("bad");

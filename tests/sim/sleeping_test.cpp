@@ -228,6 +228,35 @@ TEST(Sleeping, AwakeBodiesAreBitIdenticalToARunWithSleepingOff) {
   EXPECT_NEAR(min_z(on_run.world.body(b_on)), 0.0, 1e-3);
 }
 
+// The rest ball, closed form: with no gravity and no damping a block glides at constant velocity
+// v. Its rest begins in the first step (the anchor) and it sleeps after `time` at rest only if it
+// stays within speed x time (1 mm) of the anchor meanwhile: v < speed. At 4 mm/s (0.8 mm in
+// 0.2 s) it sleeps in step 1 + time / dt; at 6 mm/s (1.2 mm) it never does: the rest restarts
+// whenever it has crept 1 mm.
+TEST(Sleeping, ACreepingBodySleepsOnlyIfItStaysWithinRestDistance) {
+  for (const double v : {0.004, 0.006}) {
+    WorldSettings settings = sleep_on();
+    settings.gravity = Vec3::Zero();
+    ASSERT_DOUBLE_EQ(settings.sleep.rest_distance(), 1e-3);
+    World world(settings);
+    Material m = block_material();
+    m.mass_damping = 0.0;
+    BodyDef b{.name = "glider", .mesh = make_box_mesh({Vec3(0.05, 0.05, 0.05), 2, 2, 2}), .material = m,
+              .initial_velocity = Vec3(v, 0, 0)};
+    const BodyId id = world.add_body(b);
+    const int expected = 1 + static_cast<int>(std::lround(settings.sleep.time / kDt));
+    const auto asleep = step_until_asleep(world, id, 2000);
+    if (v < settings.sleep.speed) {
+      ASSERT_TRUE(asleep.has_value()) << v;
+      EXPECT_NEAR(*asleep, expected, 1) << v;
+    } else {
+      EXPECT_FALSE(asleep.has_value()) << v << " m/s slept at step " << *asleep;
+      // It kept gliding at v (closed form x = v t, rigid translation: no elastic force).
+      EXPECT_NEAR(world.body(id).positions[0].x() - (-0.025), v * 2000 * kDt, 1e-9);
+    }
+  }
+}
+
 TEST(Sleeping, TurningSleepingOffWakesEveryBody) {
   FloorAndBlock s(sleep_on());
   ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
