@@ -8,16 +8,17 @@
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
 //   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
 //   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
-// - K' is assembled once per step into 3x3-block CSR rows (by vertex, both triangles) from the
-//   rotated shape gradients r_j = R g_j:
+// - K' is assembled once per step into 3x3-block CSR rows (by vertex, both triangles), row by row
+//   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
 //   slots of every tet are precomputed (no search during assembly). The matrix-free product per
 //   tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i, is kept as an option.
 // - Linearisation state (session 2): one pass over the tets gives, at positions x, the rotations,
 //   the elastic forces, the per-tet energies and the rotated shape gradients; it is cached together
-//   with a copy of x. `advance` ends by computing that state at its new positions x_{n+1} (so the
-//   next step, the contact stage's frozen-rotation query and the energy report all find it ready);
-//   a query at positions that differ from the cached ones in a few vertices (a contact edit)
+//   with a copy of x. `advance` defers that state at its new positions x_{n+1} to the first use
+//   (session 3): the energy report or the next step evaluate it, K' included, at the positions
+//   they get, after the contact stage's edits, in one pass; the frozen-rotation query at x_{n+1}.
+//   A query at positions that differ from the cached ones in a few vertices (a contact edit)
 //   re-evaluates only the tets around those vertices (and swaps their blocks in the assembled K'),
 //   and any other query a full pass. Every value
 //   returned is exact for the positions passed in (bitwise comparison); only the warm starts differ.
@@ -81,6 +82,7 @@ class CorotationalFem final : public DeformationModel {
   void refresh_state(std::span<const Vec3> x);
   /// Adds sign times the tet's R K_e R^T blocks (from its rotated shape gradients) to the assembled K'.
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
+  /// Assembles K' row by row from the rotated shape gradients of every tet.
   void assemble_stiffness();
   /// Row i of the assembled K' times p.
   Vec3 row_product(size_t i, std::span<const Vec3> p) const;
@@ -108,6 +110,7 @@ class CorotationalFem final : public DeformationModel {
   double energy_ = 0.0;                  ///< sum of tet_energy_ (J)
   std::vector<Vec3> state_x_;            ///< the positions (m) all of the above belong to
   bool state_valid_ = false;
+  bool state_deferred_ = false;          ///< advance left x_{n+1} in state_x_, not yet evaluated
   std::vector<int> changed_vertices_;    ///< scratch of refresh_state (capacity reserved)
   std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state
   unsigned stamp_ = 0;
@@ -116,6 +119,13 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> block_row_offsets_, block_cols_;
   std::vector<int> diagonal_blocks_;             ///< block index of (i, i)
   std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
+  /// A tet around a vertex and the vertex's local index (0..3) in it.
+  struct TetCorner {
+    int tet;
+    int local;
+  };
+  std::vector<TetCorner> corners_;   ///< by vertex, ascending tet (row-by-row assembly)
+  std::vector<int> corner_offsets_;  ///< corners_ of vertex v: [corner_offsets_[v], corner_offsets_[v + 1])
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
 
