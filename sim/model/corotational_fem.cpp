@@ -82,19 +82,19 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
   changed_vertices_.reserve(n / kIncrementalFraction + 1);
 
   if (product_ == StiffnessProduct::assembled) {
-    // CSR of 3x3 blocks: each vertex row holds itself and its edge neighbours, ascending. Both
-    // K_ij and K_ji = K_ij^T are stored: the full-row product was ~15% faster than an upper-
-    // triangle one that adds transposed blocks to other rows (measured, models_bench).
+    // CSR of 3x3 blocks, upper triangle (session 3): row i holds K_ii first, then K_ij for its edge
+    // neighbours j > i, ascending; K_ji = K_ij^T is applied from row i. Half the blocks of full
+    // rows: the product streams half the memory and the assembly computes 10 blocks per tet, not 16.
     block_row_offsets_.assign(n + 1, 0);
     diagonal_blocks_.resize(n);
     for (size_t v = 0; v < n; ++v) {
-      auto nb = mesh_->vertex_neighbors(static_cast<int>(v));
-      std::vector<int> row(nb.begin(), nb.end());
-      row.push_back(static_cast<int>(v));
-      std::sort(row.begin(), row.end());
+      std::vector<int> row{static_cast<int>(v)};
+      for (int j : mesh_->vertex_neighbors(static_cast<int>(v))) {
+        if (j > static_cast<int>(v)) row.push_back(j);
+      }
+      std::sort(row.begin() + 1, row.end());
+      diagonal_blocks_[v] = block_row_offsets_[v];
       block_row_offsets_[v + 1] = block_row_offsets_[v] + static_cast<int>(row.size());
-      diagonal_blocks_[v] = block_row_offsets_[v] +
-                            static_cast<int>(std::lower_bound(row.begin(), row.end(), static_cast<int>(v)) - row.begin());
       block_cols_.insert(block_cols_.end(), row.begin(), row.end());
     }
     blocks_.assign(block_cols_.size(), Mat3::Zero());
@@ -114,7 +114,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
         const auto b = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(tet[i])];
         const auto e = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(tet[i]) + 1];
         for (size_t j = 0; j < 4; ++j) {
-          tet_blocks_[t][i * 4 + j] = static_cast<int>(std::lower_bound(b, e, tet[j]) - block_cols_.begin());
+          tet_blocks_[t][i * 4 + j] =
+              tet[j] < tet[i] ? -1 : static_cast<int>(std::find(b, e, tet[j]) - block_cols_.begin());
         }
       }
     }
@@ -168,7 +169,10 @@ void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
   const double Vmu = sign * volume_[t] * mu_, Vlambda = sign * volume_[t] * lambda_;
   const auto& slots = tet_blocks_[t];
   for (size_t a = 0; a < 4; ++a) {
-    for (size_t b = 0; b < 4; ++b) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slots[a * 4 + b])]);
+    for (size_t b = 0; b < 4; ++b) {
+      const int slot = slots[a * 4 + b];  // -1: the block is stored transposed, in the other row
+      if (slot >= 0) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)]);
+    }
   }
 }
 
@@ -188,7 +192,10 @@ void CorotationalFem::assemble_stiffness() {
       const std::array<Vec3, 4> r = rotated_shape_gradients(rotated_gradients_[t]);
       const double Vmu = volume_[t] * mu_, Vlambda = volume_[t] * lambda_;
       const auto& slots = tet_blocks_[t];
-      for (size_t b = 0; b < 4; ++b) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slots[a * 4 + b])]);
+      for (size_t b = 0; b < 4; ++b) {
+        const int slot = slots[a * 4 + b];
+        if (slot >= 0) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)]);
+      }
     }
   }
   stiffness_assembled_ = true;
@@ -321,23 +328,31 @@ double CorotationalFem::elastic_energy(std::span<const Vec3> x) {
 
 // Plain scalars and raw pointers (session 3): with Eigen's block * vector into a Vec3 returned
 // through memory, GCC stored the running sum and reloaded the member arrays' pointers every block
-// (it cannot rule out aliasing), and did not inline the row into the CG product. Same operations
-// in the same order as Eigen's column-major product: (c0 p0 + c1 p1) + c2 p2, bit for bit.
+// (it cannot rule out aliasing). Row i of the upper triangle: returns y_i + K_ii p_i + sum_j K_ij p_j
+// and adds K_ij^T p_i to y_j (j > i), so y_i is complete once the rows before i have run.
 static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Mat3) == 9 * sizeof(double), "packed Eigen types");
 
-Vec3 CorotationalFem::row_product(size_t i, std::span<const Vec3> p) const {
+Vec3 CorotationalFem::row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const {
   const double* __restrict m = blocks_.data()->data();
   const int* __restrict cols = block_cols_.data();
   const double* __restrict q = p.data()->data();
-  double y0 = 0.0, y1 = 0.0, y2 = 0.0;
-  const auto last = static_cast<size_t>(block_row_offsets_[i + 1]);
-  for (auto b = static_cast<size_t>(block_row_offsets_[i]); b < last; ++b) {
+  double* __restrict out = y.data()->data();
+  const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
+  const double pi0 = q[3 * i], pi1 = q[3 * i + 1], pi2 = q[3 * i + 2];
+  const double* D = m + 9 * first;  // K_ii
+  double y0 = out[3 * i] + (D[0] * pi0 + D[3] * pi1 + D[6] * pi2);
+  double y1 = out[3 * i + 1] + (D[1] * pi0 + D[4] * pi1 + D[7] * pi2);
+  double y2 = out[3 * i + 2] + (D[2] * pi0 + D[5] * pi1 + D[8] * pi2);
+  for (size_t b = first + 1; b < last; ++b) {
     const double* B = m + 9 * b;
-    const double* pj = q + 3 * static_cast<size_t>(cols[b]);
-    const double p0 = pj[0], p1 = pj[1], p2 = pj[2];
+    const size_t j = 3 * static_cast<size_t>(cols[b]);
+    const double p0 = q[j], p1 = q[j + 1], p2 = q[j + 2];
     y0 += B[0] * p0 + B[3] * p1 + B[6] * p2;
     y1 += B[1] * p0 + B[4] * p1 + B[7] * p2;
     y2 += B[2] * p0 + B[5] * p1 + B[8] * p2;
+    out[j] += B[0] * pi0 + B[1] * pi1 + B[2] * pi2;
+    out[j + 1] += B[3] * pi0 + B[4] * pi1 + B[5] * pi2;
+    out[j + 2] += B[6] * pi0 + B[7] * pi1 + B[8] * pi2;
   }
   return Vec3(y0, y1, y2);
 }
@@ -346,7 +361,7 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
   std::fill(y.begin(), y.end(), Vec3::Zero());
   if (stiffness_assembled_) {
     const size_t n = y.size();
-    for (size_t i = 0; i < n; ++i) y[i] = row_product(i, p);
+    for (size_t i = 0; i < n; ++i) y[i] = row_product(i, p, y);
     return;
   }
   const auto nt = static_cast<size_t>(mesh_->tet_count());
@@ -371,8 +386,10 @@ double CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3>
   const size_t n = y.size();
   double py = 0.0;
   if (stiffness_assembled_) {
+    std::fill(y.begin(), y.end(), Vec3::Zero());
     for (size_t i = 0; i < n; ++i) {
-      const Vec3 yi = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * p[i] + stiffness_scale * row_product(i, p));
+      const Vec3 Kp = row_product(i, p, y);  // complete: rows before i added their K_ki^T p_k
+      const Vec3 yi = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * p[i] + stiffness_scale * Kp);
       y[i] = yi;
       py += p[i].dot(yi);
     }

@@ -8,7 +8,7 @@
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
 //   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
 //   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
-// - K' is assembled once per step into 3x3-block CSR rows (by vertex, both triangles), row by row
+// - K' is assembled once per step into 3x3-block CSR rows (by vertex, upper triangle), row by row
 //   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
 //   slots of every tet are precomputed (no search during assembly). The matrix-free product per
@@ -84,8 +84,9 @@ class CorotationalFem final : public DeformationModel {
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
   /// Assembles K' row by row from the rotated shape gradients of every tet.
   void assemble_stiffness();
-  /// Row i of the assembled K' times p.
-  Vec3 row_product(size_t i, std::span<const Vec3> p) const;
+  /// (K' p)_i from the upper-triangle row i plus the partial sum already in y_i; adds the row's
+  /// transposed blocks times p_i to y_j, j > i.
+  Vec3 row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
@@ -115,10 +116,10 @@ class CorotationalFem final : public DeformationModel {
   std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state
   unsigned stamp_ = 0;
 
-  // Assembled K' (3x3 blocks, CSR by vertex rows, diagonal included).
+  // Assembled K' (3x3 blocks, CSR by vertex rows, upper triangle: K_ii first, then j > i).
   std::vector<int> block_row_offsets_, block_cols_;
   std::vector<int> diagonal_blocks_;             ///< block index of (i, i)
-  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
+  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j; -1 below the diagonal
   /// A tet around a vertex and the vertex's local index (0..3) in it.
   struct TetCorner {
     int tet;
