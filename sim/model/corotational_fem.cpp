@@ -230,10 +230,9 @@ void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
 
 void CorotationalFem::refresh_state(std::span<const Vec3> x) {
   const size_t n = x.size();
-  // A full pass assembles K' too: the next advance, which starts from these positions unless they
-  // change again, needs it, and assembling in the same pass is cheaper than a pass of its own.
+  // A full pass leaves K' to the next advance (assembly is a pass of its own over the vertex rows).
   if (!state_valid_) {
-    linearise(x, true);
+    linearise(x, false);
     return;
   }
   changed_vertices_.clear();
@@ -241,7 +240,7 @@ void CorotationalFem::refresh_state(std::span<const Vec3> x) {
   for (size_t i = 0; i < n; ++i) {
     if (same_bits(x[i], state_x_[i])) continue;
     if (changed_vertices_.size() == limit) {
-      linearise(x, true);
+      linearise(x, false);
       return;
     }
     changed_vertices_.push_back(static_cast<int>(i));
@@ -281,7 +280,7 @@ void CorotationalFem::refresh_state(std::span<const Vec3> x) {
   energy_ = energy;
 }
 
-void CorotationalFem::update_rotations(std::span<const Vec3> x) { linearise(x, false); }
+void CorotationalFem::update_rotations(std::span<const Vec3> x) { linearise(x, true); }
 
 void CorotationalFem::internal_forces(std::span<const Vec3> x, std::span<Vec3> f) {
   refresh_state(x);
@@ -308,7 +307,7 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
 void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                                           std::span<Vec3> f) {
   // The rotations are those at the positions the last advance produced: evaluate them if deferred.
-  if (state_deferred_) linearise(state_x_, true);
+  if (state_deferred_) linearise(state_x_, false);
   for (size_t k = 0; k < vertices.size(); ++k) {
     const int v = vertices[k];
     Vec3 sum = Vec3::Zero();
@@ -524,7 +523,8 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // force query or the next advance evaluate it at the positions they are given (after the contact
   // stage's edits: one pass, where evaluating here would cost a second pass whenever contact moves
   // many vertices); the frozen-rotation query evaluates it at x_{n+1} itself. Until then the
-  // rotations are x_n's (warm starts). A non-finite x_{n+1} (a fault World will undo) is not kept.
+  // rotations are x_n's (warm starts). K' is assembled by the next advance. A non-finite x_{n+1}
+  // (a fault World will undo) is not kept.
   state_valid_ = false;
   stiffness_assembled_ = false;
   state_deferred_ = finite;

@@ -16,8 +16,9 @@
 // - Linearisation state (session 2): one pass over the tets gives, at positions x, the rotations,
 //   the elastic forces, the per-tet energies and the rotated shape gradients; it is cached together
 //   with a copy of x. `advance` defers that state at its new positions x_{n+1} to the first use
-//   (session 3): the energy report or the next step evaluate it, K' included, at the positions
-//   they get, after the contact stage's edits, in one pass; the frozen-rotation query at x_{n+1}.
+//   (session 3): the energy report or the next step evaluate it at the positions they get, after
+//   the contact stage's edits, in one pass; the frozen-rotation query at x_{n+1}. K' is assembled
+//   by advance (row by row, a pass of its own) unless a local update kept it current.
 //   A query at positions that differ from the cached ones in a few vertices (a contact edit)
 //   re-evaluates only the tets around those vertices (and swaps their blocks in the assembled K'),
 //   and any other query a full pass. Every value
@@ -57,8 +58,8 @@ class CorotationalFem final : public DeformationModel {
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
   ModelAccuracy accuracy() const override { return accuracy_; }
 
-  /// Updates element rotations at x, their rotated shape gradients (the K' of the next solve), the
-  /// forces and the energy (a full pass; the cached state then belongs to x).
+  /// Updates element rotations at x, their rotated shape gradients (the K' of the next solve, and
+  /// its assembled blocks), the forces and the energy (a full pass; the cached state then belongs to x).
   void update_rotations(std::span<const Vec3> x);
   /// y = K' p with the rotations of the last linearisation (fixed vertices not projected); uses
   /// the assembled blocks when they are current (inside advance), else the matrix-free product.
