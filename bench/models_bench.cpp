@@ -149,7 +149,7 @@ void BM_StiffnessProduct(benchmark::State& state) {
   Beam beam;
   CorotationalFem model(beam.mesh, beam.material, {}, product);
   beam.settle(model);
-  model.elastic_energy(beam.x);  // evaluates the state advance deferred: K' (and its blocks) at x
+  model.update_rotations(beam.x);  // the state advance deferred, with K' (and its blocks) at x
   std::vector<Vec3> y(beam.x.size());
   for (auto _ : state) {
     model.apply_stiffness(beam.v, y);
