@@ -62,9 +62,12 @@ class CorotationalFem final : public DeformationModel {
   /// its assembled blocks), the forces and the energy (a full pass; the cached state then belongs to x).
   void update_rotations(std::span<const Vec3> x);
   /// y = K' p with the rotations of the last linearisation (fixed vertices not projected); uses
-  /// the assembled blocks when they are current (inside advance), else the matrix-free product.
+  /// the assembled blocks when they are current (inside advance, after update_rotations), else the
+  /// matrix-free product.
   void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
-  /// True while the assembled K' matches the current rotations (set by advance, cleared by updates).
+  /// True while the assembled K' matches the current rotations: set inside advance and by
+  /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
+  /// and by a query's full pass.
   bool stiffness_is_assembled() const { return stiffness_assembled_; }
   /// Element rotation (from the last evaluation of the linearisation state).
   Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
