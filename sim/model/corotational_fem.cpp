@@ -82,22 +82,31 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
   changed_vertices_.reserve(n / kIncrementalFraction + 1);
 
   if (product_ == StiffnessProduct::assembled) {
-    // CSR of 3x3 blocks: each vertex row holds itself and its edge neighbours, ascending. Both
-    // K_ij and K_ji = K_ij^T are stored: the full-row product was ~15% faster than an upper-
-    // triangle one that adds transposed blocks to other rows (measured, models_bench).
+    // CSR of 3x3 blocks, upper triangle (session 3): row i holds K_ii first, then K_ij for its edge
+    // neighbours j > i, ascending; K_ji = K_ij^T is applied from row i. Half the blocks of full
+    // rows: the product streams half the memory and the assembly computes 10 blocks per tet, not 16.
     block_row_offsets_.assign(n + 1, 0);
     diagonal_blocks_.resize(n);
     for (size_t v = 0; v < n; ++v) {
-      auto nb = mesh_->vertex_neighbors(static_cast<int>(v));
-      std::vector<int> row(nb.begin(), nb.end());
-      row.push_back(static_cast<int>(v));
-      std::sort(row.begin(), row.end());
+      std::vector<int> row{static_cast<int>(v)};
+      for (int j : mesh_->vertex_neighbors(static_cast<int>(v))) {
+        if (j > static_cast<int>(v)) row.push_back(j);
+      }
+      std::sort(row.begin() + 1, row.end());
+      diagonal_blocks_[v] = block_row_offsets_[v];
       block_row_offsets_[v + 1] = block_row_offsets_[v] + static_cast<int>(row.size());
-      diagonal_blocks_[v] = block_row_offsets_[v] +
-                            static_cast<int>(std::lower_bound(row.begin(), row.end(), static_cast<int>(v)) - row.begin());
       block_cols_.insert(block_cols_.end(), row.begin(), row.end());
     }
     blocks_.assign(block_cols_.size(), Mat3::Zero());
+    // The corners of the tets around each vertex, ascending by tet (the mesh's vertex_tets order).
+    corner_offsets_.assign(n + 1, 0);
+    corners_.reserve(nt * 4);
+    for (size_t v = 0; v < n; ++v) {
+      for (int t : mesh_->vertex_tets(static_cast<int>(v))) {
+        corners_.push_back({t, local_index(mesh_->tets()[static_cast<size_t>(t)], static_cast<int>(v))});
+      }
+      corner_offsets_[v + 1] = static_cast<int>(corners_.size());
+    }
     tet_blocks_.resize(nt);
     for (size_t t = 0; t < nt; ++t) {
       const auto& tet = mesh_->tets()[t];
@@ -105,7 +114,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
         const auto b = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(tet[i])];
         const auto e = block_cols_.begin() + block_row_offsets_[static_cast<size_t>(tet[i]) + 1];
         for (size_t j = 0; j < 4; ++j) {
-          tet_blocks_[t][i * 4 + j] = static_cast<int>(std::lower_bound(b, e, tet[j]) - block_cols_.begin());
+          tet_blocks_[t][i * 4 + j] =
+              tet[j] < tet[i] ? -1 : static_cast<int>(std::find(b, e, tet[j]) - block_cols_.begin());
         }
       }
     }
@@ -133,31 +143,68 @@ Mat3 CorotationalFem::element_forces(size_t t, const Mat3& F, const Mat3& R) con
   return -volume_[t] * first_piola(F, R) * rest_shape_inverse_[t].transpose();
 }
 
+namespace {
+
+/// The rotated shape gradients r_0..r_3 of a tet (columns of R Dm^-T; r_0 = -(r_1 + r_2 + r_3)).
+inline std::array<Vec3, 4> rotated_shape_gradients(const Mat3& Rg) {
+  return {Vec3(-(Rg.col(0) + Rg.col(1) + Rg.col(2))), Vec3(Rg.col(0)), Vec3(Rg.col(1)), Vec3(Rg.col(2))};
+}
+
+/// Adds the block R K_ab R^T = V (mu (r_a . r_b) I + mu r_b r_a^T + lambda r_a r_b^T) to B, with
+/// Vmu = V mu and Vlambda = V lambda (signed). One expression for every caller, so a block taken
+/// out is the value that was added.
+inline void add_stiffness_block(const Vec3& ra, const Vec3& rb, double Vmu, double Vlambda, Mat3& B) {
+  const Vec3 u = Vmu * rb, w = Vlambda * ra;
+  const double d = Vmu * ra.dot(rb);
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r < 3; ++r) B(r, c) += u[r] * ra[c] + w[r] * rb[c];
+    B(c, c) += d;
+  }
+}
+
+}  // namespace
+
 void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
-  std::array<Vec3, 4> r;
-  r[1] = Rg.col(0);
-  r[2] = Rg.col(1);
-  r[3] = Rg.col(2);
-  r[0] = -(r[1] + r[2] + r[3]);
-  const double V = volume_[t];
-  // R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T); K_ji = K_ij^T.
-  const double Vmu = sign * V * mu_, Vlambda = sign * V * lambda_;
+  const std::array<Vec3, 4> r = rotated_shape_gradients(Rg);
+  const double Vmu = sign * volume_[t] * mu_, Vlambda = sign * volume_[t] * lambda_;
   const auto& slots = tet_blocks_[t];
-  for (size_t i = 0; i < 4; ++i) {
-    for (size_t j = i; j < 4; ++j) {
-      Mat3 K = Vmu * r[j] * r[i].transpose() + Vlambda * r[i] * r[j].transpose();
-      K.diagonal().array() += Vmu * r[i].dot(r[j]);
-      blocks_[static_cast<size_t>(slots[i * 4 + j])] += K;
-      if (j != i) blocks_[static_cast<size_t>(slots[j * 4 + i])] += K.transpose();
+  for (size_t a = 0; a < 4; ++a) {
+    for (size_t b = 0; b < 4; ++b) {
+      const int slot = slots[a * 4 + b];  // -1: the block is stored transposed, in the other row
+      if (slot >= 0) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)]);
     }
   }
+}
+
+// Row by row (session 3): each vertex row's blocks are zeroed and summed from the tets around the
+// vertex (ascending, the order a tet-by-tet scatter would add them in), so every block is written
+// while it is in L1 and the 3x3-block matrix streams out once. The tet-by-tet scatter it replaces
+// spent ~60% of its time waiting on first-touch cache misses in the 2 MB of blocks (perf, beam).
+void CorotationalFem::assemble_stiffness() {
+  const auto n = static_cast<size_t>(mesh_->vertex_count());
+  for (size_t i = 0; i < n; ++i) {
+    const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
+    for (size_t b = first; b < last; ++b) blocks_[b].setZero();
+    const auto corners_end = static_cast<size_t>(corner_offsets_[i + 1]);
+    for (auto c = static_cast<size_t>(corner_offsets_[i]); c < corners_end; ++c) {
+      const auto t = static_cast<size_t>(corners_[c].tet);
+      const auto a = static_cast<size_t>(corners_[c].local);
+      const std::array<Vec3, 4> r = rotated_shape_gradients(rotated_gradients_[t]);
+      const double Vmu = volume_[t] * mu_, Vlambda = volume_[t] * lambda_;
+      const auto& slots = tet_blocks_[t];
+      for (size_t b = 0; b < 4; ++b) {
+        const int slot = slots[a * 4 + b];
+        if (slot >= 0) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)]);
+      }
+    }
+  }
+  stiffness_assembled_ = true;
 }
 
 void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
   stiffness_assembled_ = false;
   assemble = assemble && product_ == StiffnessProduct::assembled;
   std::fill(forces_.begin(), forces_.end(), Vec3::Zero());
-  if (assemble) std::fill(blocks_.begin(), blocks_.end(), Mat3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
   for (size_t t = 0; t < nt; ++t) {
@@ -173,16 +220,17 @@ void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
     tet_energy_[t] = e;
     energy += e;
     scatter_tet(mesh_->tets()[t], element_forces(t, F, R), forces_);
-    if (assemble) assemble_tet(t, Rg, 1.0);
   }
+  if (assemble) assemble_stiffness();
   energy_ = energy;
-  std::copy(x.begin(), x.end(), state_x_.begin());
+  if (x.data() != state_x_.data()) std::copy(x.begin(), x.end(), state_x_.begin());
   state_valid_ = true;
-  stiffness_assembled_ = assemble;
+  state_deferred_ = false;
 }
 
 void CorotationalFem::refresh_state(std::span<const Vec3> x) {
   const size_t n = x.size();
+  // A full pass leaves K' to the next advance (assembly is a pass of its own over the vertex rows).
   if (!state_valid_) {
     linearise(x, false);
     return;
@@ -232,7 +280,7 @@ void CorotationalFem::refresh_state(std::span<const Vec3> x) {
   energy_ = energy;
 }
 
-void CorotationalFem::update_rotations(std::span<const Vec3> x) { linearise(x, false); }
+void CorotationalFem::update_rotations(std::span<const Vec3> x) { linearise(x, true); }
 
 void CorotationalFem::internal_forces(std::span<const Vec3> x, std::span<Vec3> f) {
   refresh_state(x);
@@ -258,6 +306,8 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
 
 void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                                           std::span<Vec3> f) {
+  // The rotations are those at the positions the last advance produced: evaluate them if deferred.
+  if (state_deferred_) linearise(state_x_, false);
   for (size_t k = 0; k < vertices.size(); ++k) {
     const int v = vertices[k];
     Vec3 sum = Vec3::Zero();
@@ -282,20 +332,42 @@ double CorotationalFem::elastic_energy(std::span<const Vec3> x) {
   return energy_;
 }
 
-Vec3 CorotationalFem::row_product(size_t i, std::span<const Vec3> p) const {
-  Vec3 sum = Vec3::Zero();
-  const auto last = static_cast<size_t>(block_row_offsets_[i + 1]);
-  for (auto b = static_cast<size_t>(block_row_offsets_[i]); b < last; ++b) {
-    sum.noalias() += blocks_[b] * p[static_cast<size_t>(block_cols_[b])];
+// Plain scalars and raw pointers (session 3): with Eigen's block * vector into a Vec3 returned
+// through memory, GCC stored the running sum and reloaded the member arrays' pointers every block
+// (it cannot rule out aliasing). Row i of the upper triangle: returns y_i + K_ii p_i + sum_j K_ij p_j
+// and adds K_ij^T p_i to y_j (j > i), so y_i is complete once the rows before i have run.
+static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Mat3) == 9 * sizeof(double), "packed Eigen types");
+
+Vec3 CorotationalFem::row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const {
+  const double* __restrict m = blocks_.data()->data();
+  const int* __restrict cols = block_cols_.data();
+  const double* __restrict q = p.data()->data();
+  double* __restrict out = y.data()->data();
+  const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
+  const double pi0 = q[3 * i], pi1 = q[3 * i + 1], pi2 = q[3 * i + 2];
+  const double* D = m + 9 * first;  // K_ii
+  double y0 = out[3 * i] + (D[0] * pi0 + D[3] * pi1 + D[6] * pi2);
+  double y1 = out[3 * i + 1] + (D[1] * pi0 + D[4] * pi1 + D[7] * pi2);
+  double y2 = out[3 * i + 2] + (D[2] * pi0 + D[5] * pi1 + D[8] * pi2);
+  for (size_t b = first + 1; b < last; ++b) {
+    const double* B = m + 9 * b;
+    const size_t j = 3 * static_cast<size_t>(cols[b]);
+    const double p0 = q[j], p1 = q[j + 1], p2 = q[j + 2];
+    y0 += B[0] * p0 + B[3] * p1 + B[6] * p2;
+    y1 += B[1] * p0 + B[4] * p1 + B[7] * p2;
+    y2 += B[2] * p0 + B[5] * p1 + B[8] * p2;
+    out[j] += B[0] * pi0 + B[1] * pi1 + B[2] * pi2;
+    out[j + 1] += B[3] * pi0 + B[4] * pi1 + B[5] * pi2;
+    out[j + 2] += B[6] * pi0 + B[7] * pi1 + B[8] * pi2;
   }
-  return sum;
+  return Vec3(y0, y1, y2);
 }
 
 void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const {
   std::fill(y.begin(), y.end(), Vec3::Zero());
   if (stiffness_assembled_) {
     const size_t n = y.size();
-    for (size_t i = 0; i < n; ++i) y[i] = row_product(i, p);
+    for (size_t i = 0; i < n; ++i) y[i] = row_product(i, p, y);
     return;
   }
   const auto nt = static_cast<size_t>(mesh_->tet_count());
@@ -314,21 +386,16 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
   }
 }
 
-void CorotationalFem::assemble_stiffness() {
-  std::fill(blocks_.begin(), blocks_.end(), Mat3::Zero());
-  const auto nt = static_cast<size_t>(mesh_->tet_count());
-  for (size_t t = 0; t < nt; ++t) assemble_tet(t, rotated_gradients_[t], 1.0);
-  stiffness_assembled_ = true;
-}
-
 double CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale,
                                         double stiffness_scale, std::span<const double> masses,
                                         std::span<const char> fixed) const {
   const size_t n = y.size();
   double py = 0.0;
   if (stiffness_assembled_) {
+    std::fill(y.begin(), y.end(), Vec3::Zero());
     for (size_t i = 0; i < n; ++i) {
-      const Vec3 yi = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * p[i] + stiffness_scale * row_product(i, p));
+      const Vec3 Kp = row_product(i, p, y);  // complete: rows before i added their K_ki^T p_k
+      const Vec3 yi = fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * masses[i] * p[i] + stiffness_scale * Kp);
       y[i] = yi;
       py += p[i].dot(yi);
     }
@@ -459,15 +526,16 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     x[i] += h * v[i];
     finite = finite && x[i].allFinite();
   }
-  // The linearisation state at x_{n+1}, with K' assembled: the next step's start, the frozen
-  // rotations of the contact stage and the energy report. A non-finite state (a fault World will
-  // undo) is not evaluated.
-  if (finite) {
-    linearise(x, true);
-  } else {
-    state_valid_ = false;
-    stiffness_assembled_ = false;
-  }
+  // The linearisation state at x_{n+1} is deferred to its first use: the energy report, a full
+  // force query or the next advance evaluate it at the positions they are given (after the contact
+  // stage's edits: one pass, where evaluating here would cost a second pass whenever contact moves
+  // many vertices); the frozen-rotation query evaluates it at x_{n+1} itself. Until then the
+  // rotations are x_n's (warm starts). K' is assembled by the next advance. A non-finite x_{n+1}
+  // (a fault World will undo) is not kept.
+  state_valid_ = false;
+  stiffness_assembled_ = false;
+  state_deferred_ = finite;
+  if (finite) std::copy(x.begin(), x.end(), state_x_.begin());
   return result;
 }
 

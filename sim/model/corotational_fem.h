@@ -8,16 +8,18 @@
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
 //   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
 //   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
-// - K' is assembled once per step into 3x3-block CSR rows (by vertex, both triangles) from the
-//   rotated shape gradients r_j = R g_j:
+// - K' is assembled once per step into 3x3-block CSR rows (by vertex, upper triangle), row by row
+//   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
 //   slots of every tet are precomputed (no search during assembly). The matrix-free product per
 //   tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i, is kept as an option.
 // - Linearisation state (session 2): one pass over the tets gives, at positions x, the rotations,
 //   the elastic forces, the per-tet energies and the rotated shape gradients; it is cached together
-//   with a copy of x. `advance` ends by computing that state at its new positions x_{n+1} (so the
-//   next step, the contact stage's frozen-rotation query and the energy report all find it ready);
-//   a query at positions that differ from the cached ones in a few vertices (a contact edit)
+//   with a copy of x. `advance` defers that state at its new positions x_{n+1} to the first use
+//   (session 3): the energy report or the next step evaluate it at the positions they get, after
+//   the contact stage's edits, in one pass; the frozen-rotation query at x_{n+1}. K' is assembled
+//   by advance (row by row, a pass of its own) unless a local update kept it current.
+//   A query at positions that differ from the cached ones in a few vertices (a contact edit)
 //   re-evaluates only the tets around those vertices (and swaps their blocks in the assembled K'),
 //   and any other query a full pass. Every value
 //   returned is exact for the positions passed in (bitwise comparison); only the warm starts differ.
@@ -56,13 +58,16 @@ class CorotationalFem final : public DeformationModel {
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
   ModelAccuracy accuracy() const override { return accuracy_; }
 
-  /// Updates element rotations at x, their rotated shape gradients (the K' of the next solve), the
-  /// forces and the energy (a full pass; the cached state then belongs to x).
+  /// Updates element rotations at x, their rotated shape gradients (the K' of the next solve, and
+  /// its assembled blocks), the forces and the energy (a full pass; the cached state then belongs to x).
   void update_rotations(std::span<const Vec3> x);
   /// y = K' p with the rotations of the last linearisation (fixed vertices not projected); uses
-  /// the assembled blocks when they are current (inside advance), else the matrix-free product.
+  /// the assembled blocks when they are current (inside advance, after update_rotations), else the
+  /// matrix-free product.
   void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
-  /// True while the assembled K' matches the current rotations (set by advance, cleared by updates).
+  /// True while the assembled K' matches the current rotations: set inside advance and by
+  /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
+  /// and by a query's full pass.
   bool stiffness_is_assembled() const { return stiffness_assembled_; }
   /// Element rotation (from the last evaluation of the linearisation state).
   Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
@@ -81,9 +86,11 @@ class CorotationalFem final : public DeformationModel {
   void refresh_state(std::span<const Vec3> x);
   /// Adds sign times the tet's R K_e R^T blocks (from its rotated shape gradients) to the assembled K'.
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
+  /// Assembles K' row by row from the rotated shape gradients of every tet.
   void assemble_stiffness();
-  /// Row i of the assembled K' times p.
-  Vec3 row_product(size_t i, std::span<const Vec3> p) const;
+  /// (K' p)_i from the upper-triangle row i plus the partial sum already in y_i; adds the row's
+  /// transposed blocks times p_i to y_j, j > i.
+  Vec3 row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
@@ -108,14 +115,22 @@ class CorotationalFem final : public DeformationModel {
   double energy_ = 0.0;                  ///< sum of tet_energy_ (J)
   std::vector<Vec3> state_x_;            ///< the positions (m) all of the above belong to
   bool state_valid_ = false;
+  bool state_deferred_ = false;          ///< advance left x_{n+1} in state_x_, not yet evaluated
   std::vector<int> changed_vertices_;    ///< scratch of refresh_state (capacity reserved)
   std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state
   unsigned stamp_ = 0;
 
-  // Assembled K' (3x3 blocks, CSR by vertex rows, diagonal included).
+  // Assembled K' (3x3 blocks, CSR by vertex rows, upper triangle: K_ii first, then j > i).
   std::vector<int> block_row_offsets_, block_cols_;
   std::vector<int> diagonal_blocks_;             ///< block index of (i, i)
-  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j
+  std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j; -1 below the diagonal
+  /// A tet around a vertex and the vertex's local index (0..3) in it.
+  struct TetCorner {
+    int tet;
+    int local;
+  };
+  std::vector<TetCorner> corners_;   ///< by vertex, ascending tet (row-by-row assembly)
+  std::vector<int> corner_offsets_;  ///< corners_ of vertex v: [corner_offsets_[v], corner_offsets_[v + 1])
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
 
