@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Dense>
+
 namespace pliant {
 namespace {
 
@@ -10,12 +12,50 @@ double inverse_mass(const Body& body, int v) {
   return body.is_immovable(v) ? 0.0 : 1.0 / body.masses[static_cast<size_t>(v)];
 }
 
+// Rigid modes of a free body (no fixed vertex, not kinematic or sleeping): lumped mass, centre and
+// inverse inertia about it, and the rigid velocity change the take-backs accumulated in this pass.
+struct RigidModes {
+  bool ready = false, free = false;
+  double mass = 0.0;
+  Vec3 centre = Vec3::Zero();
+  Eigen::Matrix3d inverse_inertia = Eigen::Matrix3d::Zero();
+  Vec3 dv = Vec3::Zero(), domega = Vec3::Zero();
+  void prepare(const Body& body) {
+    if (ready) return;
+    ready = true;
+    free = !body.is_kinematic() && !body.is_sleeping();
+    for (char f : body.fixed) free = free && f == 0;
+    if (!free) return;
+    for (size_t i = 0; i < body.positions.size(); ++i) {
+      mass += body.masses[i];
+      centre += body.masses[i] * body.positions[i];
+    }
+    centre /= mass;
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+    for (size_t i = 0; i < body.positions.size(); ++i) {
+      const Vec3 r = body.positions[i] - centre;
+      inertia += body.masses[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    }
+    inverse_inertia = inertia.completeOrthogonalDecomposition().pseudoInverse();
+  }
+  Vec3 velocity_at(const Vec3& x) const { return dv + domega.cross(x - centre); }
+  double inverse_mass_at(const Vec3& x, const Vec3& n) const {
+    const Vec3 rn = (x - centre).cross(n);
+    return 1.0 / mass + rn.dot(inverse_inertia * rn);
+  }
+  void apply(const Vec3& x, const Vec3& j) {
+    dv += j / mass;
+    domega += inverse_inertia * (x - centre).cross(j);
+  }
+};
+
 }  // namespace
 
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses) {
   impulses.assign(contacts.size(), ContactImpulse{});
+  std::vector<RigidModes> rigid(bodies.size());
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];
@@ -56,12 +96,41 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       }
     };
 
-    const Vec3 v_rel = m.velocities[static_cast<size_t>(contact.vertex)] - v_p;
-    const double vn = v_rel.dot(normal);
+    RigidModes& rm = rigid[static_cast<size_t>(contact.body)];
+    RigidModes& rn = rigid[static_cast<size_t>(contact.penetrated_body)];
+    const Vec3& x = m.positions[static_cast<size_t>(contact.vertex)];
+    Vec3 p = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) p += b[k] * n.positions[static_cast<size_t>(tri[static_cast<size_t>(k)])];
     const double held = held_normal_impulse.empty() ? 0.0 : held_normal_impulse[c];
+    if (held > 0.0) {
+      rm.prepare(m);
+      rn.prepare(n);
+    }
+    Vec3 v_rel = m.velocities[static_cast<size_t>(contact.vertex)] - v_p;
+    if (rm.ready && rm.free) v_rel += rm.velocity_at(x);
+    if (rn.ready && rn.free) v_rel -= rn.velocity_at(p);
+    double vn = v_rel.dot(normal);
     double normal_impulse = std::max(0.0, held - vn / w_sum);  // total, never adhesive
     if (c >= lingering_begin) normal_impulse = std::min(normal_impulse, held);  // no push at a distance
-    if (normal_impulse != held) apply((normal_impulse - held) * normal, false);
+    if (vn > 0.0 && held > 0.0 && ((rm.ready && rm.free) || (rn.ready && rn.free))) {
+      // Excess held impulse on a free body: take it back with the rigid-mode effective mass.
+      const double w_take = (rm.free ? rm.inverse_mass_at(x, normal) : w_x) + (rn.free ? rn.inverse_mass_at(p, normal) : w_p);
+      normal_impulse = std::max(0.0, held - vn / w_take);
+      const Vec3 j = (normal_impulse - held) * normal;
+      if (rm.free) rm.apply(x, j); else if (w_x > 0.0) m.velocities[static_cast<size_t>(contact.vertex)] += w_x * j;
+      if (rn.free) {
+        rn.apply(p, -j);
+      } else {
+        for (int k = 0; k < 3; ++k) {
+          const int y = tri[static_cast<size_t>(k)];
+          n.velocities[static_cast<size_t>(y)] -= b[k] * inverse_mass(n, y) * j;
+        }
+      }
+      vn = 0.0;
+      v_rel -= v_rel.dot(normal) * normal;
+    } else if (normal_impulse != held) {
+      apply((normal_impulse - held) * normal, false);
+    }
     impulses[c].normal = normal_impulse * normal;
     impulses[c].normal_magnitude = normal_impulse;
     if (!friction) continue;
@@ -75,6 +144,11 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     const Vec3 j = -jt * (v_t / speed);
     apply(j, true);
     impulses[c].friction = j;
+  }
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    if (!rigid[i].ready || !rigid[i].free) continue;
+    Body& body = *bodies[i];
+    for (size_t v = 0; v < body.positions.size(); ++v) body.velocities[v] += rigid[i].velocity_at(body.positions[v]);
   }
 }
 
