@@ -1,3 +1,12 @@
+// Design note (held contact forces at full strength, docs/contact-surface.md). A held force acted
+// through the implicit step, which on a stiff free body moves the whole body (its rigid modes), so
+// an excess held impulse shows as a separating velocity of the whole body. Taking it back with the
+// vertex's own mass removes only m_vertex / M of it per step and the body bounces (the wind-up of
+// fraction 1). So a separating contact that holds an impulse on a free body (no fixed vertex, not
+// kinematic or sleeping) takes it back with the body's rigid-mode effective inverse mass
+// 1/M + (r x n)^T I^-1 (r x n) and applies the take-back as a rigid velocity change of the body
+// (sequential impulses on a rigid body), accumulated over the pass and added to every vertex at the
+// end. Bodies with fixed vertices have no rigid modes: their take-back stays local.
 #include "sim/contact/contact_velocity_update.h"
 
 #include <algorithm>
@@ -55,7 +64,11 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses) {
   impulses.assign(contacts.size(), ContactImpulse{});
-  std::vector<RigidModes> rigid(bodies.size());
+  // Rigid modes per body slot, only when some contact holds an impulse (one allocation per step).
+  std::vector<RigidModes> rigid;
+  if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
+    rigid.resize(bodies.size());
+  }
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];
@@ -96,30 +109,38 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       }
     };
 
-    RigidModes& rm = rigid[static_cast<size_t>(contact.body)];
-    RigidModes& rn = rigid[static_cast<size_t>(contact.penetrated_body)];
+    const double held = held_normal_impulse.empty() ? 0.0 : held_normal_impulse[c];
+    RigidModes* rm = rigid.empty() ? nullptr : &rigid[static_cast<size_t>(contact.body)];
+    RigidModes* rn = rigid.empty() ? nullptr : &rigid[static_cast<size_t>(contact.penetrated_body)];
     const Vec3& x = m.positions[static_cast<size_t>(contact.vertex)];
     Vec3 p = Vec3::Zero();
     for (int k = 0; k < 3; ++k) p += b[k] * n.positions[static_cast<size_t>(tri[static_cast<size_t>(k)])];
-    const double held = held_normal_impulse.empty() ? 0.0 : held_normal_impulse[c];
     if (held > 0.0) {
-      rm.prepare(m);
-      rn.prepare(n);
+      rm->prepare(m);
+      rn->prepare(n);
     }
+    const bool m_free = rm != nullptr && rm->ready && rm->free;
+    const bool n_free = rn != nullptr && rn->ready && rn->free;
+    // Relative velocity including the rigid take-backs of earlier contacts (Gauss-Seidel).
     Vec3 v_rel = m.velocities[static_cast<size_t>(contact.vertex)] - v_p;
-    if (rm.ready && rm.free) v_rel += rm.velocity_at(x);
-    if (rn.ready && rn.free) v_rel -= rn.velocity_at(p);
+    if (m_free) v_rel += rm->velocity_at(x);
+    if (n_free) v_rel -= rn->velocity_at(p);
     double vn = v_rel.dot(normal);
     double normal_impulse = std::max(0.0, held - vn / w_sum);  // total, never adhesive
     if (c >= lingering_begin) normal_impulse = std::min(normal_impulse, held);  // no push at a distance
-    if (vn > 0.0 && held > 0.0 && ((rm.ready && rm.free) || (rn.ready && rn.free))) {
+    if (vn > 0.0 && held > 0.0 && (m_free || n_free)) {
       // Excess held impulse on a free body: take it back with the rigid-mode effective mass.
-      const double w_take = (rm.free ? rm.inverse_mass_at(x, normal) : w_x) + (rn.free ? rn.inverse_mass_at(p, normal) : w_p);
+      const double w_take =
+          (m_free ? rm->inverse_mass_at(x, normal) : w_x) + (n_free ? rn->inverse_mass_at(p, normal) : w_p);
       normal_impulse = std::max(0.0, held - vn / w_take);
       const Vec3 j = (normal_impulse - held) * normal;
-      if (rm.free) rm.apply(x, j); else if (w_x > 0.0) m.velocities[static_cast<size_t>(contact.vertex)] += w_x * j;
-      if (rn.free) {
-        rn.apply(p, -j);
+      if (m_free) {
+        rm->apply(x, j);
+      } else if (w_x > 0.0) {
+        m.velocities[static_cast<size_t>(contact.vertex)] += w_x * j;
+      }
+      if (n_free) {
+        rn->apply(p, -j);
       } else {
         for (int k = 0; k < 3; ++k) {
           const int y = tri[static_cast<size_t>(k)];
@@ -145,7 +166,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     apply(j, true);
     impulses[c].friction = j;
   }
-  for (size_t i = 0; i < bodies.size(); ++i) {
+  for (size_t i = 0; i < rigid.size(); ++i) {
     if (!rigid[i].ready || !rigid[i].free) continue;
     Body& body = *bodies[i];
     for (size_t v = 0; v < body.positions.size(); ++v) body.velocities[v] += rigid[i].velocity_at(body.positions[v]);
