@@ -338,7 +338,9 @@ void World::respond(double dt) {
       report_.reactions.push_back(KinematicReaction{static_cast<int>(i), Vec3::Zero(), Vec3::Zero()});
     }
   }
-  if (contacts_.empty()) return;
+  // Held contact forces that closed every overlap still need their response (lingering contacts).
+  const bool held = settings_.contact.method == ContactMethod::contact_surface && contact_surface_->has_held_contacts();
+  if (contacts_.empty() && !held) return;
   switch (settings_.contact.method) {
     case ContactMethod::contact_surface:
       contact_surface_->respond(body_view_, contacts_, dt, settings_.contact, report_);

@@ -26,6 +26,9 @@ class ContactResponse {
     (void)body;
     (void)forces;
   }
+  /// True if contacts of the last step still hold a force, so the next response must run even when
+  /// detection finds no overlap (a held force that keeps a dent exactly closed leaves none).
+  virtual bool has_held_contacts() const { return false; }
 };
 
 }  // namespace pliant

@@ -28,12 +28,13 @@ struct ContactSettings {
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0
-  /// Beyond the paper (docs/contact-surface.md, "Held contact forces"): this fraction of the
-  /// contact-surface response's normal contact forces of a step acts as external force through the
+  /// Beyond the paper (docs/contact-surface.md, "Held contact forces at full strength"): the
+  /// contact-surface response's normal contact forces of a step act as external force through the
   /// next integration, so a dent the search made is held instead of springing back; the velocity
-  /// update supplies the rest (accumulated impulse clamped at zero: never adhesive). 0 disables it.
-  /// Measured value 0.8 (1.0 and 0.9 wind up on stiff bodies: a block bounces on an incline). Off by
-  /// default until the interaction tests it changes are understood (docs/contact-surface.md).
+  /// update supplies the rest, and takes back an excess held impulse on a free body with the body's
+  /// rigid-mode effective mass (accumulated impulse clamped at zero: never adhesive). 1 = full
+  /// strength (recommended), 0 = off (the paper); fractions in between only for comparison. Default
+  /// 0 until the sleeping bit-identity and three-cubes residual tests pass with 1 (docs).
   double held_force_fraction = 0.0;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).

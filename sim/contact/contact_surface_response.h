@@ -27,6 +27,7 @@ class ContactSurfaceResponse final : public ContactResponse {
   void respond(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
                const ContactSettings& settings, StepReport& report) override;
   void take_held_forces(const Body& body, std::span<Vec3> forces) override;
+  bool has_held_contacts() const override { return !held_contacts_.empty(); }
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).

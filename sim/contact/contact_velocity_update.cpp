@@ -1,7 +1,18 @@
+// Design note (held contact forces at full strength, docs/contact-surface.md). A held force acted
+// through the implicit step, which on a stiff free body moves the whole body (its rigid modes), so
+// an excess held impulse shows as a separating velocity of the whole body. Taking it back with the
+// vertex's own mass removes only m_vertex / M of it per step and the body bounces (the wind-up of
+// fraction 1). So a separating contact that holds an impulse on a free body (no fixed vertex, not
+// kinematic or sleeping) takes it back with the body's rigid-mode effective inverse mass
+// 1/M + (r x n)^T I^-1 (r x n) and applies the take-back as a rigid velocity change of the body
+// (sequential impulses on a rigid body), accumulated over the pass and added to every vertex at the
+// end. Bodies with fixed vertices have no rigid modes: their take-back stays local.
 #include "sim/contact/contact_velocity_update.h"
 
 #include <algorithm>
 #include <cmath>
+
+#include <Eigen/Dense>
 
 namespace pliant {
 namespace {
@@ -10,12 +21,54 @@ double inverse_mass(const Body& body, int v) {
   return body.is_immovable(v) ? 0.0 : 1.0 / body.masses[static_cast<size_t>(v)];
 }
 
+// Rigid modes of a free body (no fixed vertex, not kinematic or sleeping): lumped mass, centre and
+// inverse inertia about it, and the rigid velocity change the take-backs accumulated in this pass.
+struct RigidModes {
+  bool ready = false, free = false;
+  double mass = 0.0;
+  Vec3 centre = Vec3::Zero();
+  Eigen::Matrix3d inverse_inertia = Eigen::Matrix3d::Zero();
+  Vec3 dv = Vec3::Zero(), domega = Vec3::Zero();
+  void prepare(const Body& body) {
+    if (ready) return;
+    ready = true;
+    free = !body.is_kinematic() && !body.is_sleeping();
+    for (char f : body.fixed) free = free && f == 0;
+    if (!free) return;
+    for (size_t i = 0; i < body.positions.size(); ++i) {
+      mass += body.masses[i];
+      centre += body.masses[i] * body.positions[i];
+    }
+    centre /= mass;
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+    for (size_t i = 0; i < body.positions.size(); ++i) {
+      const Vec3 r = body.positions[i] - centre;
+      inertia += body.masses[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    }
+    inverse_inertia = inertia.completeOrthogonalDecomposition().pseudoInverse();
+  }
+  Vec3 velocity_at(const Vec3& x) const { return dv + domega.cross(x - centre); }
+  double inverse_mass_at(const Vec3& x, const Vec3& n) const {
+    const Vec3 rn = (x - centre).cross(n);
+    return 1.0 / mass + rn.dot(inverse_inertia * rn);
+  }
+  void apply(const Vec3& x, const Vec3& j) {
+    dv += j / mass;
+    domega += inverse_inertia * (x - centre).cross(j);
+  }
+};
+
 }  // namespace
 
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses) {
   impulses.assign(contacts.size(), ContactImpulse{});
+  // Rigid modes per body slot, only when some contact holds an impulse (one allocation per step).
+  std::vector<RigidModes> rigid;
+  if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
+    rigid.resize(bodies.size());
+  }
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];
@@ -56,12 +109,49 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       }
     };
 
-    const Vec3 v_rel = m.velocities[static_cast<size_t>(contact.vertex)] - v_p;
-    const double vn = v_rel.dot(normal);
     const double held = held_normal_impulse.empty() ? 0.0 : held_normal_impulse[c];
+    RigidModes* rm = rigid.empty() ? nullptr : &rigid[static_cast<size_t>(contact.body)];
+    RigidModes* rn = rigid.empty() ? nullptr : &rigid[static_cast<size_t>(contact.penetrated_body)];
+    const Vec3& x = m.positions[static_cast<size_t>(contact.vertex)];
+    Vec3 p = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) p += b[k] * n.positions[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+    if (held > 0.0) {
+      rm->prepare(m);
+      rn->prepare(n);
+    }
+    const bool m_free = rm != nullptr && rm->ready && rm->free;
+    const bool n_free = rn != nullptr && rn->ready && rn->free;
+    // Relative velocity including the rigid take-backs of earlier contacts (Gauss-Seidel).
+    Vec3 v_rel = m.velocities[static_cast<size_t>(contact.vertex)] - v_p;
+    if (m_free) v_rel += rm->velocity_at(x);
+    if (n_free) v_rel -= rn->velocity_at(p);
+    double vn = v_rel.dot(normal);
     double normal_impulse = std::max(0.0, held - vn / w_sum);  // total, never adhesive
     if (c >= lingering_begin) normal_impulse = std::min(normal_impulse, held);  // no push at a distance
-    if (normal_impulse != held) apply((normal_impulse - held) * normal, false);
+    if (vn > 0.0 && held > 0.0 && (m_free || n_free)) {
+      // Excess held impulse on a free body: take it back with the rigid-mode effective mass.
+      const double w_take =
+          (m_free ? rm->inverse_mass_at(x, normal) : w_x) + (n_free ? rn->inverse_mass_at(p, normal) : w_p);
+      normal_impulse = std::max(0.0, held - vn / w_take);
+      const Vec3 j = (normal_impulse - held) * normal;
+      if (m_free) {
+        rm->apply(x, j);
+      } else if (w_x > 0.0) {
+        m.velocities[static_cast<size_t>(contact.vertex)] += w_x * j;
+      }
+      if (n_free) {
+        rn->apply(p, -j);
+      } else {
+        for (int k = 0; k < 3; ++k) {
+          const int y = tri[static_cast<size_t>(k)];
+          n.velocities[static_cast<size_t>(y)] -= b[k] * inverse_mass(n, y) * j;
+        }
+      }
+      vn = 0.0;
+      v_rel -= v_rel.dot(normal) * normal;
+    } else if (normal_impulse != held) {
+      apply((normal_impulse - held) * normal, false);
+    }
     impulses[c].normal = normal_impulse * normal;
     impulses[c].normal_magnitude = normal_impulse;
     if (!friction) continue;
@@ -75,6 +165,11 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     const Vec3 j = -jt * (v_t / speed);
     apply(j, true);
     impulses[c].friction = j;
+  }
+  for (size_t i = 0; i < rigid.size(); ++i) {
+    if (!rigid[i].ready || !rigid[i].free) continue;
+    Body& body = *bodies[i];
+    for (size_t v = 0; v < body.positions.size(); ++v) body.velocities[v] += rigid[i].velocity_at(body.positions[v]);
   }
 }
 
