@@ -351,7 +351,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   const bool warm_start = settings.held_force_fraction > 0.0;
   gather_contacts(bodies, contacts, dt, warm_start);
   apply_contact_velocity_update(bodies, all_contacts_, dt, settings.friction, held_impulses_, lingering_begin_,
-                                impulses_);
+                                impulses_, rigid_modes_);
   if (warm_start) {
     hold_forces(bodies, dt, settings.held_force_fraction);
   } else {

@@ -71,6 +71,7 @@ class ContactSurfaceResponse final : public ContactResponse {
   std::vector<SearchSamples> samples_;              ///< stage 3 result, reused across steps
   std::vector<PairContactForce> pairs_;             ///< this step's per-pair forces (scratch)
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
+  std::vector<RigidModes> rigid_modes_;   ///< stage 5 scratch: rigid modes per body slot
 };
 
 }  // namespace pliant

@@ -21,51 +21,17 @@ double inverse_mass(const Body& body, int v) {
   return body.is_immovable(v) ? 0.0 : 1.0 / body.masses[static_cast<size_t>(v)];
 }
 
-// Rigid modes of a free body (no fixed vertex, not kinematic or sleeping): lumped mass, centre and
-// inverse inertia about it, and the rigid velocity change the take-backs accumulated in this pass.
-struct RigidModes {
-  bool ready = false, free = false;
-  double mass = 0.0;
-  Vec3 centre = Vec3::Zero();
-  Eigen::Matrix3d inverse_inertia = Eigen::Matrix3d::Zero();
-  Vec3 dv = Vec3::Zero(), domega = Vec3::Zero();
-  void prepare(const Body& body) {
-    if (ready) return;
-    ready = true;
-    free = !body.is_kinematic() && !body.is_sleeping();
-    for (char f : body.fixed) free = free && f == 0;
-    if (!free) return;
-    for (size_t i = 0; i < body.positions.size(); ++i) {
-      mass += body.masses[i];
-      centre += body.masses[i] * body.positions[i];
-    }
-    centre /= mass;
-    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
-    for (size_t i = 0; i < body.positions.size(); ++i) {
-      const Vec3 r = body.positions[i] - centre;
-      inertia += body.masses[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
-    }
-    inverse_inertia = inertia.completeOrthogonalDecomposition().pseudoInverse();
-  }
-  Vec3 velocity_at(const Vec3& x) const { return dv + domega.cross(x - centre); }
-  double inverse_mass_at(const Vec3& x, const Vec3& n) const {
-    const Vec3 rn = (x - centre).cross(n);
-    return 1.0 / mass + rn.dot(inverse_inertia * rn);
-  }
-  void apply(const Vec3& x, const Vec3& j) {
-    dv += j / mass;
-    domega += inverse_inertia * (x - centre).cross(j);
-  }
-};
-
 }  // namespace
 
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
-                                   size_t lingering_begin, std::vector<ContactImpulse>& impulses) {
+                                   size_t lingering_begin, std::vector<ContactImpulse>& impulses,
+                                   std::vector<RigidModes>& rigid_scratch) {
   impulses.assign(contacts.size(), ContactImpulse{});
-  // Rigid modes per body slot, only when some contact holds an impulse (one allocation per step).
-  std::vector<RigidModes> rigid;
+  // Rigid modes per body slot, only when some contact holds an impulse (the scratch keeps its
+  // capacity between steps: no allocation once grown).
+  std::vector<RigidModes>& rigid = rigid_scratch;
+  rigid.clear();
   if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
     rigid.resize(bodies.size());
   }

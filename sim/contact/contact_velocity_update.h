@@ -18,6 +18,9 @@
 #pragma once
 
 #include <span>
+#include <vector>
+
+#include <Eigen/Dense>
 
 #include "sim/body.h"
 #include "sim/collision/contact_types.h"
@@ -32,13 +35,53 @@ struct ContactImpulse {
   double normal_magnitude = 0.0; ///< |normal| (N s), >= 0
 };
 
+/// Rigid modes of a free body (no fixed vertex, not kinematic or sleeping): lumped mass (kg), centre
+/// and inverse inertia about it, and the rigid velocity change the take-backs accumulated in a pass.
+struct RigidModes {
+  bool ready = false, free = false;
+  double mass = 0.0;
+  Vec3 centre = Vec3::Zero();
+  Eigen::Matrix3d inverse_inertia = Eigen::Matrix3d::Zero();
+  Vec3 dv = Vec3::Zero(), domega = Vec3::Zero();
+  void prepare(const Body& body) {
+    if (ready) return;
+    ready = true;
+    free = !body.is_kinematic() && !body.is_sleeping();
+    for (char f : body.fixed) free = free && f == 0;
+    if (!free) return;
+    for (size_t i = 0; i < body.positions.size(); ++i) {
+      mass += body.masses[i];
+      centre += body.masses[i] * body.positions[i];
+    }
+    centre /= mass;
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+    for (size_t i = 0; i < body.positions.size(); ++i) {
+      const Vec3 r = body.positions[i] - centre;
+      inertia += body.masses[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    }
+    inverse_inertia = inertia.completeOrthogonalDecomposition().pseudoInverse();
+  }
+  Vec3 velocity_at(const Vec3& x) const { return dv + domega.cross(x - centre); }
+  double inverse_mass_at(const Vec3& x, const Vec3& n) const {
+    const Vec3 rn = (x - centre).cross(n);
+    return 1.0 / mass + rn.dot(inverse_inertia * rn);
+  }
+  void apply(const Vec3& x, const Vec3& j) {
+    dv += j / mass;
+    domega += inverse_inertia * (x - centre).cross(j);
+  }
+};
+
+
 /// Applies the normal velocity update and (if `friction`) Coulomb friction for every contact.
 /// `held_normal_impulse` (N s, one per contact, or empty for none) is the normal impulse that the
 /// held contact force already applied in this step's integration. Contacts from index
 /// `lingering_begin` on are held contacts that detection did not find again: their normal impulse
-/// may only shrink (take back the held one), never grow. `impulses` gets one entry per contact.
+/// may only shrink (take back the held one), never grow. `impulses` gets one entry per contact;
+/// `rigid_scratch` is working storage reused across calls.
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
-                                   size_t lingering_begin, std::vector<ContactImpulse>& impulses);
+                                   size_t lingering_begin, std::vector<ContactImpulse>& impulses,
+                                   std::vector<RigidModes>& rigid_scratch);
 
 }  // namespace pliant
