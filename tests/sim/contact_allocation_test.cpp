@@ -66,12 +66,12 @@ TEST(ContactAllocation, RespondStageAllocatesNothingAfterWarmUp) {
     Pose pose = tool.pose;
     RespondAllocations counter;
     constexpr double kTwoPi = 6.283185307179586;
-    for (int step = 0; step < 400; ++step) {
+    for (int step = 0; step < 600; ++step) {
       pose.translation.z() = 0.0095 - 2e-3 * std::sin(kTwoPi * step / 100.0);  // in and out, 100 steps
       world.set_kinematic_pose(tool_id, pose);
-      if (step == 300) counter.count = 0;  // three periods warm the buffers up; count the fourth
+      if (step == 500) counter.count = 0;  // five periods warm the buffers up; count the sixth
       ASSERT_EQ(world.step(1e-3, &counter).fault, StepFault::none);
-      if (step >= 300) {
+      if (step >= 500) {
         ASSERT_GT(world.last_report().colliding_vertices, 0) << step;
       }
     }
