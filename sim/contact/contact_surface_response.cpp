@@ -194,6 +194,19 @@ void ContactSurfaceResponse::take_held_forces(const Body& body, std::span<Vec3> 
   }
 }
 
+// Copy assignment keeps the vectors' capacity: no allocation per step once they have grown.
+void ContactSurfaceResponse::save_held_forces() {
+  saved_held_ = held_;
+  saved_held_contacts_ = held_contacts_;
+  saved_held_normal_force_ = held_normal_force_;
+}
+
+void ContactSurfaceResponse::restore_held_forces() {
+  held_ = saved_held_;
+  held_contacts_ = saved_held_contacts_;
+  held_normal_force_ = saved_held_normal_force_;
+}
+
 void ContactSurfaceResponse::gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                              double dt, bool warm_start) {
   all_contacts_.assign(contacts.begin(), contacts.end());
