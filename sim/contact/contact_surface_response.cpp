@@ -368,8 +368,11 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Friction moves the vertices it slows by h dv, tangentially to its own contact's plane but not
   // to a neighbouring contact's that shares a triangle vertex (a dent's slopes; lingering contacts):
   // with held forces the friction cone is the full load's and this left up to 0.1 mm of overlap on
-  // the probe scene. The projection is the last thing that moves positions, so it runs again.
-  if (settings.finishing_projection) finishing_projection(bodies, contacts, region_, 32);
+  // the probe scene. The projection is the last thing that moves positions, so it runs again, but
+  // only if friction moved a vertex (otherwise the overlap is the first projection's round-off).
+  const bool friction_moved = std::any_of(impulses_.begin(), impulses_.end(),
+                                          [](const ContactImpulse& i) { return i.friction.squaredNorm() > 0.0; });
+  if (settings.finishing_projection && friction_moved) finishing_projection(bodies, contacts, region_, 32);
   if (warm_start) {
     hold_forces(bodies, dt, settings.held_force_fraction);
   } else {
