@@ -209,6 +209,7 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
     saved_velocities_[i] = slots_[i]->velocities;
     saved_poses_[i] = slots_[i]->pose;
   }
+  contact_surface_->save_held_forces();
 
   if (!settings_.sleep.enabled) {
     for (Body* b : body_view_) {
@@ -229,6 +230,7 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
       slots_[i]->velocities = saved_velocities_[i];
       slots_[i]->pose = saved_poses_[i];
     }
+    contact_surface_->restore_held_forces();
     if (report_.fault == StepFault::none) report_.fault = StepFault::non_finite;
     if (report_.fault_message.empty()) report_.fault_message = "non-finite state after step; state restored";
     return report_;

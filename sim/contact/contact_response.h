@@ -29,6 +29,11 @@ class ContactResponse {
   /// True if contacts of the last step still hold a force, so the next response must run even when
   /// detection finds no overlap (a held force that keeps a dent exactly closed leaves none).
   virtual bool has_held_contacts() const { return false; }
+  /// Keeps the held forces as they are before a step (the world calls it with its own state save).
+  virtual void save_held_forces() {}
+  /// Restores the held forces kept by save_held_forces(): a step that faulted and was undone
+  /// neither consumed the held forces nor holds its own (the retried step takes the same ones).
+  virtual void restore_held_forces() {}
 };
 
 }  // namespace pliant

@@ -35,9 +35,10 @@ struct ContactSettings {
   /// next integration, so a dent the search made is held instead of springing back; the velocity
   /// update supplies the rest, and takes back an excess held impulse on a free body with the body's
   /// rigid-mode effective mass (accumulated impulse clamped at zero: never adhesive). 1 = full
-  /// strength (recommended), 0 = off (the paper); fractions in between only for comparison. Default
-  /// 0 until the sleeping bit-identity and three-cubes residual tests pass with 1 (docs).
-  double held_force_fraction = 0.0;
+  /// strength, the contact's whole reaction (the default since session 4); 0 = off (the paper's
+  /// method, for comparison); fractions in between only for comparison (the stability harness
+  /// and its ledger keep their session-2 value 0.8).
+  double held_force_fraction = 1.0;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

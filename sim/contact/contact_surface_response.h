@@ -28,6 +28,8 @@ class ContactSurfaceResponse final : public ContactResponse {
                const ContactSettings& settings, StepReport& report) override;
   void take_held_forces(const Body& body, std::span<Vec3> forces) override;
   bool has_held_contacts() const override { return !held_contacts_.empty(); }
+  void save_held_forces() override;
+  void restore_held_forces() override;
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).
@@ -62,6 +64,10 @@ class ContactSurfaceResponse final : public ContactResponse {
   std::vector<HeldForces> held_;
   std::vector<VertexContact> held_contacts_;  ///< last step's contacts with a normal force
   std::vector<double> held_normal_force_;     ///< N, per held contact
+  /// The held state before the current step (save_held_forces), for an undone step.
+  std::vector<HeldForces> saved_held_;
+  std::vector<VertexContact> saved_held_contacts_;
+  std::vector<double> saved_held_normal_force_;
   std::vector<char> held_used_;               ///< scratch: held contact found again this step
   std::vector<VertexContact> all_contacts_;   ///< this step's contacts, then the lingering ones
   std::vector<double> held_impulses_;         ///< N s per entry of all_contacts_
