@@ -91,6 +91,7 @@ BodyId World::add_body(BodyDef def) {
   body->mesh = def.mesh;
   body->material = def.material;
   body->motion = def.motion;
+  body->instrument = def.motion == BodyMotion::kinematic && def.instrument;
   body->pose = def.pose;
   body->target_pose = def.pose;
   body->self_collision = def.self_collision;

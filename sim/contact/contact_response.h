@@ -29,6 +29,8 @@ class ContactResponse {
   /// True if contacts of the last step still hold a force, so the next response must run even when
   /// detection finds no overlap (a held force that keeps a dent exactly closed leaves none).
   virtual bool has_held_contacts() const { return false; }
+  /// The contacts of the last step that still hold a force (body indices are slots); empty if none.
+  virtual std::span<const VertexContact> held_contacts() const { return {}; }
 };
 
 }  // namespace pliant

@@ -28,6 +28,7 @@ class ContactSurfaceResponse final : public ContactResponse {
                const ContactSettings& settings, StepReport& report) override;
   void take_held_forces(const Body& body, std::span<Vec3> forces) override;
   bool has_held_contacts() const override { return !held_contacts_.empty(); }
+  std::span<const VertexContact> held_contacts() const override { return held_contacts_; }
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).
