@@ -313,6 +313,7 @@ void World::detect() {
   spatial_hash_.detect(collision_bodies_, filter_, colliding_);
   // A moving body touched a sleeping one: wake it and detect again with its pairs back in.
   if (settings_.sleep.enabled) {
+    note_instrument_contacts(body_view_, colliding_, contact_surface_->held_contacts());
     report_.bodies_woken = wake_touched_bodies(body_view_, colliding_, settings_.sleep);
     if (report_.bodies_woken > 0) {
       build_collision_filter();
