@@ -315,7 +315,9 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
   for (long i = 0; i < options.warm_up_steps; ++i) {
     if (!runner.tick(&profiler)) break;
   }
-  SceneHaptics haptics(clock, runner, HapticLimits{}, options.seconds, options.realtime_priority);
+  // The scene's "haptics" limits (clamp, rate limit, tick rate), as `pliant run --realtime` uses.
+  const HapticLimits& limits = scene.haptics.limits;
+  SceneHaptics haptics(clock, runner, limits, options.seconds, options.realtime_priority);
   StepTimeStats step;
   long over_budget = 0;
   const double t_start = clock.now();
@@ -337,6 +339,9 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
                       {"physics_step_ms", percentiles_ms_json(step)},
                       {"physics_budget_ms", budget * 1e3},
                       {"physics_steps_over_budget", over_budget},
+                      {"haptic_limits", {{"max_force_n", limits.max_force},
+                                         {"max_force_rate_n_per_s", limits.max_delta * limits.rate_hz},
+                                         {"rate_hz", limits.rate_hz}}},
                       {"haptics", haptic_summary_json(timing, haptics.stats())},
                       {"fault", runner.fault().empty() ? nlohmann::json(nullptr) : nlohmann::json(runner.fault())}};
   const auto ms = [](const Percentiles& p, double q) { return (q < 0.9 ? p.p50 : (q < 1.0 ? p.p99 : p.max)) * 1e3; };
@@ -383,6 +388,10 @@ int run_haptic_bench(const BenchOptions& options, std::ostream& log) {
     if (options.contact) scene.world.contact.method = contact_method_from_string(*options.contact);
     if (scene.instruments.empty()) {
       log << scene.name << ": no instruments, skipped\n";
+      continue;
+    }
+    if (!scene.haptics.enabled) {
+      log << scene.name << ": \"haptics\": {\"enabled\": false}, skipped\n";
       continue;
     }
     rows.push_back(haptic_bench_scene(scene, options, log));

@@ -121,6 +121,7 @@ Instrument Instrument::create(World& world, const InstrumentSpec& spec) {
     def.name = spec.name + "/" + part;
     def.mesh = build_instrument_mesh(std::move(raw), source + " " + part);
     def.motion = BodyMotion::kinematic;
+    def.instrument = true;  // a tool, not a fixture: what it touches stays awake (sim/sleep)
     def.material.friction = spec.friction;
     InstrumentPart p{part, BodyId{}, jaw_sign};
     def.pose = tool.part_pose(p, tool.command_);

@@ -26,6 +26,9 @@ struct BodyDef {
   TetMeshPtr mesh;
   Material material;
   BodyMotion motion = BodyMotion::deformable;
+  /// Kinematic bodies only: an instrument (a tool the scene moves into tissue), not a fixture.
+  /// A body an instrument touches never falls asleep (sim/sleep/sleep_settings.h).
+  bool instrument = false;
   ModelKind model = ModelKind::corotational_fem;
   ModelSettings model_settings;
   Pose pose;                          ///< placement of the rest mesh in the world
@@ -42,6 +45,7 @@ class Body {
   TetMeshPtr mesh;
   Material material;
   BodyMotion motion = BodyMotion::deformable;
+  bool instrument = false;  ///< kinematic bodies: an instrument, not a fixture (BodyDef::instrument)
   std::unique_ptr<DeformationModel> model;  ///< null for kinematic bodies
 
   // State, touched every step: flat arrays indexed by vertex.

@@ -91,6 +91,7 @@ BodyId World::add_body(BodyDef def) {
   body->mesh = def.mesh;
   body->material = def.material;
   body->motion = def.motion;
+  body->instrument = def.motion == BodyMotion::kinematic && def.instrument;
   body->pose = def.pose;
   body->target_pose = def.pose;
   body->self_collision = def.self_collision;
@@ -314,6 +315,7 @@ void World::detect() {
   spatial_hash_.detect(collision_bodies_, filter_, colliding_);
   // A moving body touched a sleeping one: wake it and detect again with its pairs back in.
   if (settings_.sleep.enabled) {
+    note_instrument_contacts(body_view_, colliding_, contact_surface_->held_contacts());
     report_.bodies_woken = wake_touched_bodies(body_view_, colliding_, settings_.sleep);
     if (report_.bodies_woken > 0) {
       build_collision_filter();

@@ -34,6 +34,8 @@ class ContactResponse {
   /// Restores the held forces kept by save_held_forces(): a step that faulted and was undone
   /// neither consumed the held forces nor holds its own (the retried step takes the same ones).
   virtual void restore_held_forces() {}
+  /// The contacts of the last step that still hold a force (body indices are slots); empty if none.
+  virtual std::span<const VertexContact> held_contacts() const { return {}; }
 };
 
 }  // namespace pliant

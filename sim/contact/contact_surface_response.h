@@ -30,6 +30,7 @@ class ContactSurfaceResponse final : public ContactResponse {
   bool has_held_contacts() const override { return !held_contacts_.empty(); }
   void save_held_forces() override;
   void restore_held_forces() override;
+  std::span<const VertexContact> held_contacts() const override { return held_contacts_; }
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).

@@ -15,6 +15,12 @@
 // body touches it: a kinematic body that moved this step (an instrument), or an awake deformable
 // body that left its rest ball in its last step (or has just been created or woken). Waking spreads
 // to sleeping bodies whose bounding boxes overlap a woken one (a pile wakes together).
+// Instruments (kinematic bodies flagged Body::instrument: the scene's tools, not its fixtures,
+// floors or dishes) are different: a body an instrument touches (a colliding vertex either way
+// this step, or a contact of the last step that still holds a force) does not rest, so it never
+// falls asleep under an instrument that stands still (a probe holding a dent: the tissue keeps
+// answering with the reaction force), and it wakes if it sleeps; pairs with an instrument are never
+// filtered as resting. A kinematic fixture still lets bodies fall asleep on it.
 #pragma once
 
 #include <vector>
@@ -41,6 +47,7 @@ struct SleepState {
   std::vector<Vec3> rest_anchor;  ///< m, positions when the rest began (empty: not at rest)
   double elastic_energy = 0.0; ///< J, the body's elastic energy when it fell asleep (positions frozen)
   bool has_elastic_energy = false;
+  bool instrument_contact = false;  ///< an instrument touches the body this step (never rests)
 };
 
 }  // namespace pliant

@@ -8,9 +8,10 @@ namespace pliant {
 
 namespace {
 
-// A body that cannot set another in motion this step.
+// A body that cannot set another in motion this step (an instrument always can: it presses).
 bool is_resting(const Body* body) {
   if (body == nullptr) return true;
+  if (body->instrument) return false;
   return body->is_kinematic() ? !body->moved_this_step : body->is_sleeping();
 }
 
@@ -58,6 +59,34 @@ void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter
   }
 }
 
+int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
+                             std::span<const VertexContact> held) {
+  for (Body* b : bodies) {
+    if (b != nullptr) b->sleep.instrument_contact = false;
+  }
+  int marked = 0;
+  auto mark_pair = [&](int a, int b) {
+    Body* first = bodies[static_cast<size_t>(a)];
+    Body* second = bodies[static_cast<size_t>(b)];
+    if (first == nullptr || second == nullptr) return;  // a held contact with a removed body
+    for (Body* touched : {first, second}) {
+      const Body* other = touched == first ? second : first;
+      if (!other->instrument || touched->is_kinematic() || touched->sleep.instrument_contact) continue;
+      touched->sleep.instrument_contact = true;
+      ++marked;
+    }
+  };
+  for (const VertexInTet& c : colliding) mark_pair(c.body, c.penetrated_body);
+  for (const VertexContact& c : held) {
+    if (c.body < 0 || c.penetrated_body < 0) continue;
+    if (static_cast<size_t>(c.body) >= bodies.size() || static_cast<size_t>(c.penetrated_body) >= bodies.size()) {
+      continue;
+    }
+    mark_pair(c.body, c.penetrated_body);
+  }
+  return marked;
+}
+
 void wake_body(Body& body) {
   body.sleep.sleeping = false;
   body.sleep.resting = false;
@@ -72,7 +101,7 @@ int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexI
   auto moves = [&](int index) {
     const Body* b = bodies[static_cast<size_t>(index)];
     if (b == nullptr || b->is_sleeping()) return false;
-    if (b->is_kinematic()) return b->moved_this_step;
+    if (b->is_kinematic()) return b->instrument || b->moved_this_step;
     return !b->sleep.resting;
   };
   std::vector<int> woken;
@@ -87,6 +116,11 @@ int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexI
     const Body* p = bodies[static_cast<size_t>(c.penetrated_body)];
     if (a->is_sleeping() && moves(c.penetrated_body)) wake(c.body);
     if (p->is_sleeping() && moves(c.body)) wake(c.penetrated_body);
+  }
+  // A contact that still holds a force with an instrument wakes a body too (it may show no overlap).
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const Body* b = bodies[i];
+    if (b != nullptr && b->sleep.instrument_contact) wake(static_cast<int>(i));
   }
   // Spread to sleeping neighbours (a body lying on a woken one must not hover).
   for (size_t k = 0; k < woken.size(); ++k) {
@@ -124,6 +158,7 @@ int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& 
       sleep.rest_time = 0.0;
       sleep.rest_anchor = body->positions;  // reuses its capacity
     }
+    if (sleep.instrument_contact) sleep.rest_time = 0.0;  // under an instrument: never asleep
     if (sleep.rest_time >= settings.time) {
       sleep.sleeping = true;
       for (Vec3& v : body->velocities) v.setZero();

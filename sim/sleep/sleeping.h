@@ -14,11 +14,18 @@
 namespace pliant {
 
 /// Disallows pairs (and self pairs) between bodies that do not move this step: sleeping
-/// deformable bodies and kinematic bodies that kept their pose. Indices are body slots.
+/// deformable bodies and kinematic bodies that kept their pose (not instruments). Indices are body
+/// slots.
 void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter);
 
+/// Marks each deformable body an instrument touches this step (SleepState::instrument_contact):
+/// a vertex-in-tet pair in `colliding` between it and an instrument, or a contact in `held` (the
+/// contacts of the last step that still hold a force) between them. Returns the number marked.
+int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
+                             std::span<const VertexContact> held);
+
 /// Wakes every sleeping body that a moving body touches in `colliding` (a kinematic body that
-/// moved this step, or an awake deformable body that left its rest ball in its last step), and
+/// moved this step, any instrument, or an awake deformable body that left its rest ball in its last step), and
 /// then, transitively, sleeping bodies whose bounding boxes (grown by settings.wake_margin) overlap
 /// a woken body. Returns the number of bodies woken.
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
@@ -29,7 +36,8 @@ void wake_body(Body& body);
 
 /// After a step of dt (s): checks each awake deformable body against its rest ball
 /// (sleep_settings.h), advancing its rest time or restarting the rest with a new anchor, and puts
-/// bodies to sleep (velocities set to zero) once the rest time reaches settings.time.
+/// bodies to sleep (velocities set to zero) once the rest time reaches settings.time. A body an
+/// instrument touches (note_instrument_contacts) keeps its rest time at zero.
 /// `body_energy` is this step's report per slot; its elastic energy is kept for the reports while
 /// the body sleeps (`has_energy`: whether it was computed). Returns the number of bodies asleep.
 int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& settings,

@@ -152,6 +152,36 @@ TEST(BenchCommand, WindowProfileCoversTheTimedStepsInOrder) {
   EXPECT_NE(r.output.find("0.002-0.005"), std::string::npos) << r.output;
 }
 
+// --haptic takes the scene's "haptics" limits (as `run --realtime` does), not the defaults: a copy
+// of probe_coarse with a 250 Hz thread, a 0.5 N clamp and 20 N/s reports those limits and ticks at
+// 250 Hz (the period is 1 / rate_hz exactly); with "enabled": false the scene is skipped.
+TEST(BenchCommand, HapticBenchUsesTheScenesHapticLimits) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("bench_haptic");
+  fs::create_directories(out);
+  nlohmann::json scene;
+  {
+    std::ifstream in(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/probe_coarse.json");
+    scene = nlohmann::json::parse(in);
+  }
+  scene["haptics"] = {{"max_force", 0.5}, {"max_force_rate", 20.0}, {"rate_hz", 250.0}};
+  std::ofstream(out / "limited.json") << scene.dump(2);
+  scene["haptics"]["enabled"] = false;
+  std::ofstream(out / "off.json") << scene.dump(2);
+  const CliResult r = run_cli("bench --haptic --seconds 0.2 --warm-up 0 --no-rt-priority --json " +
+                              (out / "h.json").string() + " " + (out / "limited.json").string() + " " +
+                              (out / "off.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json b = read_json(out / "h.json");
+  ASSERT_EQ(b["rows"].size(), 1u) << r.output;  // the disabled copy is skipped
+  const auto& row = b["rows"][0];
+  EXPECT_DOUBLE_EQ(row["haptic_limits"]["max_force_n"].get<double>(), 0.5);
+  EXPECT_NEAR(row["haptic_limits"]["max_force_rate_n_per_s"].get<double>(), 20.0, 1e-12);
+  EXPECT_DOUBLE_EQ(row["haptic_limits"]["rate_hz"].get<double>(), 250.0);
+  EXPECT_NEAR(row["haptics"]["rate_hz"].get<double>(), 250.0, 1e-9);
+  EXPECT_NE(r.output.find("enabled\": false}, skipped"), std::string::npos) << r.output;
+}
+
 TEST(ExperimentCommand, BadInputExitsWith2) {
   if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
   const fs::path out = scratch("bad");

@@ -2,7 +2,10 @@
 // once it has settled and its state then stops changing exactly; it wakes in the step a moving
 // body or an instrument first touches it; a body in free fall never sleeps (checked against the
 // ballistic closed form); bodies that are awake are not affected (bit-identical to a run with
-// sleeping off), and sleeping off never puts a body to sleep.
+// sleeping off), and sleeping off never puts a body to sleep. Instruments are not fixtures: tissue
+// under a probe that presses and then holds still never falls asleep, and the probe's reaction
+// force is bit-identical to a run with sleeping off at every step (with the same probe flagged as a
+// fixture the tissue falls asleep in the hold and the force drops to zero: the failure it prevents).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -139,7 +142,7 @@ TEST(Sleeping, WakesWhenAnInstrumentTouchesIt) {
   FloorAndBlock s(sleep_on());
   // A kinematic probe 10 x 10 x 10 mm hovering 5 mm above the block's top (z = 0.05).
   BodyDef p{.name = "probe", .mesh = make_box_mesh({Vec3(0.01, 0.01, 0.01), 1, 1, 1}),
-            .material = block_material(), .motion = BodyMotion::kinematic};
+            .material = block_material(), .motion = BodyMotion::kinematic, .instrument = true};
   p.pose.translation = Vec3(0.004, 0.003, 0.05 + 0.005 + 0.005);
   const BodyId probe = s.world.add_body(p);
   ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
@@ -173,6 +176,87 @@ TEST(Sleeping, WakesWhenAnInstrumentTouchesIt) {
   }
   ASSERT_GT(woken_at, 0);
   EXPECT_NEAR(woken_at, expected, 1) << "gap " << gap << " m";
+}
+
+// A tissue slab 60 x 60 x 20 mm fixed at its base, and a 10 mm cube probe above its centre that
+// presses 2 mm in at 20 mm/s (100 steps) and then holds still for 0.6 s (three times the rest time).
+struct ProbeHold {
+  World world;
+  BodyId tissue, probe;
+  Pose pose;
+  ProbeHold(WorldSettings settings, bool instrument) : world(settings) {
+    Material m = block_material();
+    m.young_modulus = 1e4;  // Pa, soft tissue
+    BodyDef t{.name = "tissue", .mesh = make_box_mesh({Vec3(0.06, 0.06, 0.02), 4, 4, 2}), .material = m};
+    t.pose.translation = Vec3(0, 0, -0.01);  // top face at z = 0
+    const auto& rest = t.mesh->rest_positions();
+    for (size_t v = 0; v < rest.size(); ++v) {
+      if (rest[v].z() < -0.01 + 1e-9) t.fixed_vertices.push_back(static_cast<int>(v));
+    }
+    tissue = world.add_body(t);
+    BodyDef p{.name = "probe", .mesh = make_box_mesh({Vec3(0.01, 0.01, 0.01), 1, 1, 1}),
+              .material = block_material(), .motion = BodyMotion::kinematic, .instrument = instrument};
+    p.pose.translation = Vec3(0.001, 0.002, 0.005 + 1e-4);  // bottom face 0.1 mm above the tissue
+    pose = p.pose;
+    probe = world.add_body(p);
+  }
+  // Steps once (moving the probe down 20 mm/s for the first 100 steps); the probe's reaction force.
+  Vec3 step(int i) {
+    if (i < 100) {
+      pose.translation.z() -= 0.02 * kDt;
+      world.set_kinematic_pose(probe, pose);
+    }
+    const StepReport& r = world.step(kDt);
+    EXPECT_TRUE(r.all_finite);
+    for (const auto& reaction : r.reactions) {
+      if (reaction.body == static_cast<int>(probe.index)) return reaction.force;
+    }
+    ADD_FAILURE() << "no reaction entry for the probe";
+    return Vec3::Zero();
+  }
+};
+
+TEST(Sleeping, TissueUnderAStillInstrumentNeverSleepsAndItsForceMatchesSleepingOff) {
+  for (const double held : {0.0, 1.0}) {
+    WorldSettings on = sleep_on(), off = sleep_on();
+    on.contact.held_force_fraction = held;
+    off.contact.held_force_fraction = held;
+    off.sleep.enabled = false;
+    ProbeHold with_sleep(on, true), without(off, true);
+    int pressing_steps = 0;
+    for (int i = 0; i < 700; ++i) {
+      const Vec3 f_on = with_sleep.step(i), f_off = without.step(i);
+      ASSERT_FALSE(with_sleep.world.body(with_sleep.tissue).is_sleeping()) << "held " << held << " step " << i;
+      for (int k = 0; k < 3; ++k) {
+        ASSERT_EQ(std::memcmp(&f_on[k], &f_off[k], sizeof(double)), 0)
+            << "held " << held << " step " << i << ": " << f_on.transpose() << " vs " << f_off.transpose();
+      }
+      // From the first contact on (2 mm in, then held) the tissue pushes the probe up every step.
+      if (f_off.z() > 0.0) ++pressing_steps;
+      if (pressing_steps > 0 && i >= 100) {
+        ASSERT_GT(f_on.z(), 0.0) << "held " << held << " step " << i;
+      }
+    }
+    EXPECT_GT(pressing_steps, 600) << "held " << held;
+    EXPECT_TRUE(bit_identical(with_sleep.world.body(with_sleep.tissue).positions,
+                              without.world.body(without.tissue).positions)) << "held " << held;
+  }
+}
+
+// The failure the instrument flag prevents: the same probe as a fixture lets the tissue fall asleep
+// during the hold (a sleeping body is immovable and the still fixture's pairs with it are not
+// detected), and the reported force drops to zero.
+TEST(Sleeping, TissueUnderAStillFixtureFallsAsleepAndItsForceDropsToZero) {
+  ProbeHold s(sleep_on(), false);
+  int asleep_at = -1;
+  Vec3 last = Vec3::Zero();
+  for (int i = 0; i < 700; ++i) {
+    last = s.step(i);
+    if (asleep_at < 0 && s.world.body(s.tissue).is_sleeping()) asleep_at = i;
+  }
+  ASSERT_GE(asleep_at, 100 + 200) << "slept before the hold's rest time was over";
+  EXPECT_EQ(last.norm(), 0.0);
+  EXPECT_EQ(s.world.last_report().colliding_vertices, 0);
 }
 
 TEST(Sleeping, BodyInFreeFallNeverSleepsEvenAtTheTopOfItsFlight) {
