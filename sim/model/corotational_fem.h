@@ -153,8 +153,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> query_slot_;         ///< per tet: its slot (valid when marked)
   unsigned query_generation_ = 0;
   size_t query_slots_ = 0;              ///< slots used by the current query
-  std::vector<Mat3> query_piola_;       ///< exact query: P per slot; frozen: R per slot
-  std::vector<Mat3> query_strain_;      ///< frozen query: G = R^T F per slot
+  std::vector<Mat3> query_forces_;      ///< per slot: exact query P (Pa); frozen: -V P Dm^-T (N)
   std::vector<Mat3> frozen_rotation_;   ///< per tet: rotation at the deferred state (cache)
   std::vector<Mat3> frozen_key_;        ///< per tet: F at state_x_ the cached rotation belongs to
   std::vector<char> frozen_cached_;     ///< per tet: 1 when the cache entry is filled
