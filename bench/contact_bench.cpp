@@ -37,7 +37,10 @@ class RespondTimer final : public StepProfiler {
   double start_ = 0.0;
 };
 
-enum class Variant { surface, surface_without_held_forces, penalty };
+/// surface: held forces 0.8; surface_without_held_forces: the paper's response (held off), library
+/// defaults otherwise; penalty: the penalty response; surface_exact_search: held off, every query
+/// exact (ContactSettings::frozen_rotation_search off; appended last so the others keep their ids).
+enum class Variant { surface, surface_without_held_forces, penalty, surface_exact_search };
 
 void run_respond_benchmark(benchmark::State& state, const char* scene_file) {
   const auto variant = static_cast<Variant>(state.range(0));
@@ -46,6 +49,7 @@ void run_respond_benchmark(benchmark::State& state, const char* scene_file) {
   scene.world.contact.method =
       variant == Variant::penalty ? ContactMethod::penalty : ContactMethod::contact_surface;
   scene.world.contact.held_force_fraction = variant == Variant::surface ? 0.8 : 0.0;
+  if (variant == Variant::surface_exact_search) scene.world.contact.frozen_rotation_search = false;
   scene.world.compute_energy = false;
   scene.world.sleep.enabled = false;  // keep every body in contact awake: time the response itself
   SceneRunner runner(scene);
@@ -74,6 +78,7 @@ BENCHMARK(BM_ProbeRespond)
     ->Arg(static_cast<int>(Variant::surface))
     ->Arg(static_cast<int>(Variant::surface_without_held_forces))
     ->Arg(static_cast<int>(Variant::penalty))
+    ->Arg(static_cast<int>(Variant::surface_exact_search))
     ->ArgNames({"variant"})
     ->UseManualTime()
     ->Iterations(300)
@@ -81,6 +86,7 @@ BENCHMARK(BM_ProbeRespond)
 BENCHMARK(BM_ThreeCubesRespond)
     ->Arg(static_cast<int>(Variant::surface_without_held_forces))
     ->Arg(static_cast<int>(Variant::penalty))
+    ->Arg(static_cast<int>(Variant::surface_exact_search))
     ->ArgNames({"variant"})
     ->UseManualTime()
     ->Iterations(300)

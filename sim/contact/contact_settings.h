@@ -23,10 +23,10 @@ struct ContactSettings {
   /// model's last linearisation (DeformationModel::internal_forces_at_frozen_rotations: cheaper,
   /// approximate) for a body whose searching vertices move by at most h / 2^(n+1) (h: local edge
   /// length), where its error stays below the search's resolution (docs/contact-surface.md,
-  /// "Speed"); the same for the final evaluation at the contact surface. Off by default: on stiff
-  /// pre-stressed bodies its error grows past that bound (held-force floor and ledger tests fail),
-  /// and the query forces the model's deferred linearisation inside the respond stage.
-  bool frozen_rotation_search = false;
+  /// "Speed"). The final evaluation at the contact surface (held-force cap, reported forces) is
+  /// always exact, and the frozen rotations are extracted only for the tets the search touches
+  /// (session 4); false: every query exact.
+  bool frozen_rotation_search = true;
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0

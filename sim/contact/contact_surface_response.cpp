@@ -36,7 +36,8 @@ void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>
 // last linearised (h: its local edge length) is evaluated with the model's frozen-rotation query:
 // its error relative to the force change grows like |s| / h (0.4 |s| / h measured on a
 // pre-stressed beam, docs/deformation-models.md), so there it stays below the search's own
-// resolution 1 / 2^(n+1), with a margin of about 2.5. The others get the exact query.
+// resolution 1 / 2^(n+1), with a margin of about 2.5. The others get the exact query. The final
+// evaluation passes n = 0 (always exact).
 void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region, bool search_only,
                         int frozen_iterations) {
   auto& vertices = region.vertices();
@@ -343,9 +344,10 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
     if (observer) observer(ContactStage::projection);
   }
 
-  // Forces at the final contact surface (frozen rotations under the same bound as the search):
-  // pressure imbalance, the held-force cap and each side's elastic force in the report.
-  evaluate_pressures(bodies, region_, false, settings.frozen_rotation_search ? iterations : 0);
+  // Forces at the final contact surface, always exact (session 4: the frozen query's error is
+  // multiplied by a stiff body's pre-stress, and these forces leave the stage as the held-force cap
+  // and the reported elastic forces): pressure imbalance, held-force cap, each side's elastic force.
+  evaluate_pressures(bodies, region_, false, 0);
   double imbalance_sum = 0.0;
   int imbalance_count = 0;
   for (const auto& v : vertices) {

@@ -41,12 +41,6 @@ inline int local_index(const TetIndices& tet, int v) {
   return -1;
 }
 
-/// Rest shape gradient of local vertex j from Dm^-1: row j-1 for j >= 1, minus their sum for 0.
-inline Vec3 shape_gradient(const Mat3& rest_shape_inverse, int j) {
-  if (j == 0) return -rest_shape_inverse.colwise().sum().transpose();
-  return rest_shape_inverse.row(j - 1).transpose();
-}
-
 }  // namespace
 
 CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, const ModelSettings& settings,
@@ -287,45 +281,7 @@ void CorotationalFem::internal_forces(std::span<const Vec3> x, std::span<Vec3> f
   std::copy(forces_.begin(), forces_.end(), f.begin());
 }
 
-void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
-                                         std::span<Vec3> f) {
-  for (size_t k = 0; k < vertices.size(); ++k) {
-    const int v = vertices[k];
-    Vec3 sum = Vec3::Zero();
-    for (int t : mesh_->vertex_tets(v)) {
-      const auto ts = static_cast<size_t>(t);
-      const Mat3 F = deformation_gradient(x, t);
-      Quat q = rotations_[ts];  // warm start; the stored rotation is left as it is
-      extract_rotation(F, q, kRotationIterations, kRotationTolerance);
-      const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
-      sum -= volume_[ts] * (first_piola(F, q.toRotationMatrix()) * g);
-    }
-    f[k] = sum;
-  }
-}
-
-void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
-                                                          std::span<Vec3> f) {
-  // The rotations are those at the positions the last advance produced: evaluate them if deferred.
-  if (state_deferred_) linearise(state_x_, false);
-  for (size_t k = 0; k < vertices.size(); ++k) {
-    const int v = vertices[k];
-    Vec3 sum = Vec3::Zero();
-    for (int t : mesh_->vertex_tets(v)) {
-      const auto ts = static_cast<size_t>(t);
-      const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
-      // Mueller & Gross's warped stiffness f = -R K (R^T x - X): the linear stress of the symmetric
-      // strain sym(R^T F) - I, rotated by R. (2 mu (F - R) would also resist a rotation away from R.)
-      const Mat3 R = rotations_[ts].toRotationMatrix();
-      const Mat3 G = R.transpose() * deformation_gradient(x, t);  // R^T F
-      const double volumetric = lambda_ * (G.trace() - 3.0) - 2.0 * mu_;
-      // P g = R (mu (G + G^T) + (lambda tr(G - I) - 2 mu) I) g
-      const Vec3 stress_g = mu_ * (G * g + G.transpose() * g) + volumetric * g;
-      sum -= volume_[ts] * (R * stress_g);
-    }
-    f[k] = sum;
-  }
-}
+// internal_forces_at and internal_forces_at_frozen_rotations: sim/model/corotational_local_query.cpp.
 
 double CorotationalFem::elastic_energy(std::span<const Vec3> x) {
   refresh_state(x);

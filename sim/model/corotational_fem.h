@@ -26,6 +26,7 @@
 #pragma once
 
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "sim/model/deformation_model.h"
@@ -137,6 +138,25 @@ class CorotationalFem final : public DeformationModel {
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
   std::vector<Mat3> preconditioner_;
+
+  // Local queries (sim/model/corotational_local_query.cpp): each tet around the asked vertices is
+  // evaluated once per query, into a slot; buffers sized on first use and kept.
+  /// Starts a local query: forgets the slots of the last one (sizes the per-tet marks once).
+  void begin_local_query();
+  /// Slot of tet t in this query, and whether it was just created (the caller fills it).
+  std::pair<size_t, bool> local_query_slot(size_t t);
+  /// Rotation of tet t at the state the last advance left (state_x_), for the frozen query:
+  /// rotations_ when the state is evaluated, else extracted lazily (warm start rotations_) and
+  /// cached per tet, keyed by the bits of its deformation gradient at state_x_.
+  Mat3 frozen_rotation(size_t t);
+  std::vector<unsigned> query_mark_;    ///< per tet: query_generation_ when it has a slot
+  std::vector<int> query_slot_;         ///< per tet: its slot (valid when marked)
+  unsigned query_generation_ = 0;
+  size_t query_slots_ = 0;              ///< slots used by the current query
+  std::vector<Mat3> query_forces_;      ///< per slot: exact query P (Pa); frozen: -V P Dm^-T (N)
+  std::vector<Mat3> frozen_rotation_;   ///< per tet: rotation at the deferred state (cache)
+  std::vector<Mat3> frozen_key_;        ///< per tet: F at state_x_ the cached rotation belongs to
+  std::vector<char> frozen_cached_;     ///< per tet: 1 when the cache entry is filled
 };
 
 }  // namespace pliant

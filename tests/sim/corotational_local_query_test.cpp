@@ -1,0 +1,154 @@
+// The corotational model's local force queries (sim/model/corotational_local_query.cpp) against
+// references: the tet-wise exact query against the whole-body internal forces at the same positions
+// (a second method: every tet, scattered; a fresh model and the same model, to round-off),
+// and against itself asked one vertex at a time (each tet
+// is evaluated once per query, and a vertex's sum must not depend on what else is asked); the frozen
+// query with lazily extracted rotations against the same query after the model's full pass at the
+// state advance left (bitwise: the same rotations), over several steps (no stale cache entry).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/mesh/box_mesh.h"
+#include "sim/model/corotational_fem.h"
+
+namespace pliant {
+namespace {
+
+Material material(double E, double nu) {
+  Material m;
+  m.young_modulus = E;
+  m.poisson_ratio = nu;
+  m.density = 1000.0;
+  m.mass_damping = 0.0;
+  m.stiffness_damping = 0.01;
+  return m;
+}
+
+// A cantilever of 20 x 2 x 2 cells sagging under gravity: strained and rotated elements.
+struct SaggingBeam {
+  TetMeshPtr mesh = make_box_mesh({Vec3(0.5, 0.05, 0.05), 20, 2, 2});
+  Material m = material(1e5, 0.45);
+  size_t n = static_cast<size_t>(mesh->vertex_count());
+  std::vector<double> masses = mesh->lumped_masses(m.density);
+  std::vector<char> fixed = std::vector<char>(n, 0);
+  std::vector<Vec3> ext = std::vector<Vec3>(n);
+  std::vector<Vec3> x = mesh->rest_positions(), v = std::vector<Vec3>(n, Vec3::Zero());
+  SaggingBeam() {
+    for (size_t i = 0; i < n; ++i) {
+      fixed[i] = x[i].x() < -0.25 + 1e-12 ? 1 : 0;
+      ext[i] = masses[i] * Vec3(0, 0, -9.81);
+    }
+  }
+  void step(DeformationModel& model, std::vector<Vec3>& xs, std::vector<Vec3>& vs) {
+    model.advance(xs, vs, {masses, fixed, ext, 1e-2});
+  }
+  /// Surface vertices of the top face near the tip (a contact patch: neighbours share tets).
+  std::vector<int> patch() const {
+    std::vector<int> out;
+    for (int i : mesh->surface_vertices()) {
+      const Vec3& p = mesh->rest_positions()[static_cast<size_t>(i)];
+      if (p.x() > 0.15 && p.z() > 0.025 - 1e-9) out.push_back(i);
+    }
+    return out;
+  }
+};
+
+double max_difference(std::span<const Vec3> a, std::span<const Vec3> b) {
+  double d = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+
+double max_norm(std::span<const Vec3> a) {
+  double d = 0.0;
+  for (const auto& v : a) d = std::max(d, v.norm());
+  return d;
+}
+
+bool bitwise_equal(std::span<const Vec3> a, std::span<const Vec3> b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (a[i].x() != b[i].x() || a[i].y() != b[i].y() || a[i].z() != b[i].z()) return false;
+  }
+  return true;
+}
+
+TEST(CorotationalLocalQuery, TetWiseExactQueryEqualsTheWholeBodyForcesAtContactEditedPositions) {
+  SaggingBeam beam;
+  CorotationalFem model(beam.mesh, beam.m, {});
+  for (int s = 0; s < 8; ++s) beam.step(model, beam.x, beam.v);
+  const std::vector<int> patch = beam.patch();
+  ASSERT_GE(patch.size(), 12u);
+  std::vector<Vec3> x = beam.x;
+  for (size_t k = 0; k < patch.size(); ++k) {  // a contact edit: the patch pushed down, unevenly
+    x[static_cast<size_t>(patch[k])] += Vec3(1e-4 * static_cast<double>(k % 3), 0.0, -2e-3 - 1e-4 * static_cast<double>(k));
+  }
+  std::vector<Vec3> local(patch.size());
+  model.internal_forces_at(x, patch, local);
+  // One vertex at a time (no tet shared within a query): the same sums, bit for bit (asked
+  // before any whole-body pass: the queries warm-start from the rotations advance left).
+  std::vector<Vec3> single(1), one_by_one(patch.size());
+  for (size_t k = 0; k < patch.size(); ++k) {
+    model.internal_forces_at(x, std::span<const int>(&patch[k], 1), single);
+    one_by_one[k] = single[0];
+  }
+  EXPECT_TRUE(bitwise_equal(local, one_by_one));
+  // Whole body, by a fresh model (every tet once, scattered in tet order).
+  CorotationalFem fresh(beam.mesh, beam.m, {});
+  std::vector<Vec3> whole(beam.n);
+  fresh.internal_forces(x, whole);
+  std::vector<Vec3> reference(patch.size());
+  for (size_t k = 0; k < patch.size(); ++k) reference[k] = whole[static_cast<size_t>(patch[k])];
+  ASSERT_GT(max_norm(reference), 0.0);
+  EXPECT_LT(max_difference(local, reference), 1e-10 * max_norm(reference));
+  // The same model's whole-body pass at x (its warm starts are the query's: the rotations advance
+  // left): the same tet forces, -V P g_j against -V P Dm^-T's columns: round-off.
+  model.internal_forces(x, whole);
+  for (size_t k = 0; k < patch.size(); ++k) reference[k] = whole[static_cast<size_t>(patch[k])];
+  EXPECT_LT(max_difference(local, reference), 1e-13 * max_norm(reference));
+}
+
+TEST(CorotationalLocalQuery, FrozenQueryWithLazyRotationsIsTheQueryAfterTheFullPass) {
+  SaggingBeam beam;
+  // Two models stepped alike: `lazy` answers the frozen query from the state advance deferred,
+  // `full` after a full pass at that state (what the query did before: the whole body's rotations).
+  CorotationalFem lazy(beam.mesh, beam.m, {}), full(beam.mesh, beam.m, {});
+  std::vector<Vec3> x_full = beam.x, v_full = beam.v;
+  const std::vector<int> patch = beam.patch();
+  std::vector<Vec3> f_lazy(patch.size()), f_full(patch.size()), forces(beam.n);
+  // A tet in the middle of the beam (far from the patch, x > 0.15 m), rotating as the beam sags.
+  int far_tet = 0;
+  double nearest = 1.0;
+  for (int t = 0; t < beam.mesh->tet_count(); ++t) {
+    double cx = 0.0;
+    for (int i : beam.mesh->tets()[static_cast<size_t>(t)]) cx += 0.25 * beam.x[static_cast<size_t>(i)].x();
+    if (std::abs(cx + 0.05) < nearest) {
+      nearest = std::abs(cx + 0.05);
+      far_tet = t;
+    }
+  }
+  for (int s = 0; s < 6; ++s) {
+    beam.step(lazy, beam.x, beam.v);
+    beam.step(full, x_full, v_full);
+    ASSERT_TRUE(bitwise_equal(beam.x, x_full)) << s;
+    const Mat3 far_before = lazy.element_rotation(far_tet);
+    full.internal_forces(x_full, forces);  // the full pass at x_{n+1}
+    for (int k = 0; k < 3; ++k) {  // three searched positions in a step
+      std::vector<Vec3> x = beam.x;
+      for (int i : patch) x[static_cast<size_t>(i)] += Vec3(0.0, 0.0, -1e-4 * (k + 1));
+      lazy.internal_forces_at_frozen_rotations(x, patch, f_lazy);
+      full.internal_forces_at_frozen_rotations(x, patch, f_full);
+      EXPECT_TRUE(bitwise_equal(f_lazy, f_full)) << "step " << s << " query " << k;
+    }
+    // The lazy model did not evaluate the far tet: its stored rotation is still x_n's.
+    EXPECT_EQ(lazy.element_rotation(far_tet), far_before) << s;
+    EXPECT_NE(full.element_rotation(far_tet), far_before) << s;  // (it did rotate: the check can fail)
+    // The next step starts both from the same positions: the lazy model's first user (here the
+    // whole-body query) makes the full pass.
+    lazy.internal_forces(beam.x, forces);
+  }
+}
+
+}  // namespace
+}  // namespace pliant
