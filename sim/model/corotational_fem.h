@@ -38,6 +38,12 @@ enum class StiffnessProduct {
   assembled,    ///< 3x3-block sparse matrix assembled once per step (default: faster, measured)
 };
 
+/// Preconditioner of the implicit step's conjugate gradients.
+enum class Preconditioner {
+  block_jacobi,  ///< inverse 3x3 diagonal blocks (the only choice with the matrix-free product)
+  ssor,          ///< symmetric block Gauss-Seidel, Eisenstat's form (default with the assembled K')
+};
+
 class CorotationalFem final : public DeformationModel {
  public:
   /// Precomputes inverse rest shapes; `product` selects how K' is applied in CG.
@@ -65,6 +71,10 @@ class CorotationalFem final : public DeformationModel {
   /// the assembled blocks when they are current (inside advance, after update_rotations), else the
   /// matrix-free product.
   void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// Selects the CG preconditioner (ssor needs the assembled K'; block_jacobi otherwise).
+  void set_preconditioner(Preconditioner preconditioner) { preconditioner_kind_ = preconditioner; }
+  /// The CG preconditioner asked for (the matrix-free product always runs block-Jacobi).
+  Preconditioner preconditioner() const { return preconditioner_kind_; }
   /// True while the assembled K' matches the current rotations: set inside advance and by
   /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
   /// and by a query's full pass.
@@ -91,6 +101,16 @@ class CorotationalFem final : public DeformationModel {
   /// (K' p)_i from the upper-triangle row i plus the partial sum already in y_i; adds the row's
   /// transposed blocks times p_i to y_j, j > i.
   Vec3 row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// Iterations run and the final relative residual |rhs - A dv| / |rhs| of a CG solve.
+  struct CgOutcome {
+    int iterations = 0;
+    double residual = 0.0;
+  };
+  /// CG with block-Jacobi from the warm start in dv_ (its residual r_ and relative residual given).
+  CgOutcome solve_jacobi(double residual, double rhs_norm, double mass_scale, double stiffness_scale,
+                         std::span<const double> masses, std::span<const char> fixed);
+  /// CG with symmetric block Gauss-Seidel in Eisenstat's form (assembled K'; same inputs).
+  CgOutcome solve_ssor(double residual, double rhs_norm, double stiffness_scale, std::span<const char> fixed);
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
@@ -136,7 +156,9 @@ class CorotationalFem final : public DeformationModel {
 
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
-  std::vector<Mat3> preconditioner_;
+  std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
+  std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
+  Preconditioner preconditioner_kind_ = Preconditioner::ssor;
 };
 
 }  // namespace pliant
