@@ -146,33 +146,53 @@ Mat3 CorotationalFem::element_forces(size_t t, const Mat3& F, const Mat3& R) con
 
 namespace {
 
-/// The rotated shape gradients r_0..r_3 of a tet (columns of R Dm^-T; r_0 = -(r_1 + r_2 + r_3)).
-inline std::array<Vec3, 4> rotated_shape_gradients(const Mat3& Rg) {
-  return {Vec3(-(Rg.col(0) + Rg.col(1) + Rg.col(2))), Vec3(Rg.col(0)), Vec3(Rg.col(1)), Vec3(Rg.col(2))};
-}
-
-/// Adds the block R K_ab R^T = V (mu (r_a . r_b) I + mu r_b r_a^T + lambda r_a r_b^T) to B, with
-/// Vmu = V mu and Vlambda = V lambda (signed). One expression for every caller, so a block taken
-/// out is the value that was added.
-inline void add_stiffness_block(const Vec3& ra, const Vec3& rb, double Vmu, double Vlambda, Mat3& B) {
-  const Vec3 u = Vmu * rb, w = Vlambda * ra;
-  const double d = Vmu * ra.dot(rb);
-  for (int c = 0; c < 3; ++c) {
-    for (int r = 0; r < 3; ++r) B(r, c) += u[r] * ra[c] + w[r] * rb[c];
-    B(c, c) += d;
+/// The rotated shape gradients r_0..r_3 of a tet (columns of R Dm^-T; r_0 = -(r_1 + r_2 + r_3)),
+/// as plain triples (r[a][k], component k of r_a).
+struct RotatedGradients {
+  double r[4][3];
+  explicit RotatedGradients(const Mat3& Rg) {
+    const double* g = Rg.data();  // column-major: column j = r_{j+1}
+    for (int k = 0; k < 3; ++k) {
+      r[1][k] = g[k];
+      r[2][k] = g[3 + k];
+      r[3][k] = g[6 + k];
+      r[0][k] = -(g[k] + g[3 + k] + g[6 + k]);
+    }
   }
+};
+
+/// Adds the block R K_ab R^T = V (mu (r_a . r_b) I + mu r_b r_a^T + lambda r_a r_b^T) to the
+/// column-major 3x3 block B, with Vmu = V mu and Vlambda = V lambda (signed). One expression for
+/// every caller, so a block taken out is the value that was added. Plain scalars through restrict
+/// pointers (session 4): with Eigen types GCC reloaded r_a from memory for every entry (it cannot
+/// rule out that B aliases it) and spilled through the stack.
+inline void add_stiffness_block(const double* __restrict ra, const double* __restrict rb, double Vmu, double Vlambda,
+                                double* __restrict B) {
+  const double u0 = Vmu * rb[0], u1 = Vmu * rb[1], u2 = Vmu * rb[2];
+  const double w0 = Vlambda * ra[0], w1 = Vlambda * ra[1], w2 = Vlambda * ra[2];
+  const double a0 = ra[0], a1 = ra[1], a2 = ra[2], b0 = rb[0], b1 = rb[1], b2 = rb[2];
+  const double d = Vmu * (a0 * b0 + a1 * b1 + a2 * b2);
+  B[0] += u0 * a0 + w0 * b0 + d;
+  B[1] += u1 * a0 + w1 * b0;
+  B[2] += u2 * a0 + w2 * b0;
+  B[3] += u0 * a1 + w0 * b1;
+  B[4] += u1 * a1 + w1 * b1 + d;
+  B[5] += u2 * a1 + w2 * b1;
+  B[6] += u0 * a2 + w0 * b2;
+  B[7] += u1 * a2 + w1 * b2;
+  B[8] += u2 * a2 + w2 * b2 + d;
 }
 
 }  // namespace
 
 void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
-  const std::array<Vec3, 4> r = rotated_shape_gradients(Rg);
+  const RotatedGradients g(Rg);
   const double Vmu = sign * volume_[t] * mu_, Vlambda = sign * volume_[t] * lambda_;
   const auto& slots = tet_blocks_[t];
   for (size_t a = 0; a < 4; ++a) {
     for (size_t b = 0; b < 4; ++b) {
       const int slot = slots[a * 4 + b];  // -1: the block is stored transposed, in the other row
-      if (slot >= 0) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)]);
+      if (slot >= 0) add_stiffness_block(g.r[a], g.r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)].data());
     }
   }
 }
@@ -183,19 +203,22 @@ void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
 // spent ~60% of its time waiting on first-touch cache misses in the 2 MB of blocks (perf, beam).
 void CorotationalFem::assemble_stiffness() {
   const auto n = static_cast<size_t>(mesh_->vertex_count());
+  double* blocks = blocks_.data()->data();
+  const Mat3* rotated = rotated_gradients_.data();
+  const double* volume = volume_.data();
+  const TetCorner* corners = corners_.data();
   for (size_t i = 0; i < n; ++i) {
     const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
-    for (size_t b = first; b < last; ++b) blocks_[b].setZero();
+    std::fill(blocks + 9 * first, blocks + 9 * last, 0.0);
     const auto corners_end = static_cast<size_t>(corner_offsets_[i + 1]);
     for (auto c = static_cast<size_t>(corner_offsets_[i]); c < corners_end; ++c) {
-      const auto t = static_cast<size_t>(corners_[c].tet);
-      const auto a = static_cast<size_t>(corners_[c].local);
-      const std::array<Vec3, 4> r = rotated_shape_gradients(rotated_gradients_[t]);
-      const double Vmu = volume_[t] * mu_, Vlambda = volume_[t] * lambda_;
-      const auto& slots = tet_blocks_[t];
+      const auto t = static_cast<size_t>(corners[c].tet);
+      const auto a = static_cast<size_t>(corners[c].local);
+      const RotatedGradients g(rotated[t]);
+      const double Vmu = volume[t] * mu_, Vlambda = volume[t] * lambda_;
+      const int* slots = tet_blocks_[t].data() + a * 4;
       for (size_t b = 0; b < 4; ++b) {
-        const int slot = slots[a * 4 + b];
-        if (slot >= 0) add_stiffness_block(r[a], r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)]);
+        if (slots[b] >= 0) add_stiffness_block(g.r[a], g.r[b], Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
       }
     }
   }
@@ -344,7 +367,8 @@ namespace {
 // Sweeps of symmetric block Gauss-Seidel (SSOR with omega = 1) over the system matrix
 // A = D + L + L^T, D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (3x3 blocks), L_ji = s K'_ij^T for
 // the stored upper blocks K'_ij (j > i), s = h (beta + h). Fixed vertices are decoupled: their rows
-// and columns carry no off-diagonal block and their D_i is the identity (their values stay zero).
+// carry no off-diagonal block and their D_i is the identity; every vector the sweeps see is exactly
+// zero at fixed vertices (the residual and the directions are), so their columns need no test.
 struct SsorSweeps {
   const double* blocks;  ///< K' upper-triangle blocks, column-major 3x3
   const int* cols;       ///< block column (vertex) index
@@ -367,7 +391,6 @@ struct SsorSweeps {
       const auto last = static_cast<size_t>(offsets[i + 1]);
       for (auto b = static_cast<size_t>(offsets[i]) + 1; b < last; ++b) {
         const auto j = static_cast<size_t>(cols[b]);
-        if (fixed[j] != 0) continue;
         const double* B = blocks + 9 * b;
         const double p0 = T[3 * j], p1 = T[3 * j + 1], p2 = T[3 * j + 2];
         a0 += B[0] * p0 + B[3] * p1 + B[6] * p2;
@@ -394,8 +417,7 @@ struct SsorSweeps {
       const double y0 = s * y.x(), y1 = s * y.y(), y2 = s * y.z();
       const auto last = static_cast<size_t>(offsets[i + 1]);
       for (auto b = static_cast<size_t>(offsets[i]) + 1; b < last; ++b) {
-        const auto j = static_cast<size_t>(cols[b]);
-        if (fixed[j] != 0) continue;
+        const auto j = static_cast<size_t>(cols[b]);  // a fixed row ignores what it is sent
         const double* B = blocks + 9 * b;
         A[3 * j] += B[0] * y0 + B[1] * y1 + B[2] * y2;
         A[3 * j + 1] += B[3] * y0 + B[4] * y1 + B[5] * y2;
@@ -410,13 +432,12 @@ struct SsorSweeps {
     double* A = acc->data();
     double sum = 0.0;
     for (size_t i = 0; i < n; ++i) {
+      if (fixed[i] != 0) continue;  // zero residual there (x is zero, what it was sent is ignored)
       sum += (D[i] * x[i] + acc[i]).squaredNorm();
-      if (fixed[i] != 0) continue;
       const double y0 = s * x[i].x(), y1 = s * x[i].y(), y2 = s * x[i].z();
       const auto last = static_cast<size_t>(offsets[i + 1]);
       for (auto b = static_cast<size_t>(offsets[i]) + 1; b < last; ++b) {
         const auto j = static_cast<size_t>(cols[b]);
-        if (fixed[j] != 0) continue;
         const double* B = blocks + 9 * b;
         A[3 * j] += B[0] * y0 + B[1] * y1 + B[2] * y2;
         A[3 * j + 1] += B[3] * y0 + B[4] * y1 + B[5] * y2;
@@ -562,16 +583,21 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     sweeps.backward(p_.data(), z_.data());  // t
+    double pq = 0.0;
     sweeps.forward([&](size_t i) { return Vec3(p_[i] - diagonal_system_blocks_[i] * z_[i]); },
-                   [&](size_t i, const Vec3& y) { q_[i] = z_[i] + y; }, kv_.data());  // w
-    const double pq = dot(p_, q_);
+                   [&](size_t i, const Vec3& y) {
+                     q_[i] = z_[i] + y;
+                     pq += p_[i].dot(q_[i]);
+                   },
+                   kv_.data());  // w
     if (!(pq > 0.0)) break;
     const double a = rz / pq;
     double rz_next = 0.0;
     for (size_t i = 0; i < n; ++i) {
       dv_[i] += a * z_[i];
       r_[i] -= a * q_[i];
-      rz_next += r_[i].dot(diagonal_system_blocks_[i] * r_[i]);
+      rhs_[i] = diagonal_system_blocks_[i] * r_[i];  // D r~ (the right-hand side is not needed any more)
+      rz_next += r_[i].dot(rhs_[i]);
     }
     ++it;
     residual = scale * std::sqrt(std::max(rz_next, 0.0));
@@ -583,7 +609,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     }
     const double b = rz_next / rz;
     rz = rz_next;
-    for (size_t i = 0; i < n; ++i) p_[i] = diagonal_system_blocks_[i] * r_[i] + b * p_[i];
+    for (size_t i = 0; i < n; ++i) p_[i] = rhs_[i] + b * p_[i];
   }
   return {it, residual};
 }
