@@ -156,6 +156,7 @@ class CorotationalFem final : public DeformationModel {
 
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
+  std::vector<Vec3> dv_previous_;  ///< the dv of the step before the last
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
   std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
