@@ -499,6 +499,17 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
   }
 }
 
+void CorotationalFem::apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
+                                           std::span<Vec3> yb) const {
+  std::fill(ya.begin(), ya.end(), Vec3::Zero());
+  std::fill(yb.begin(), yb.end(), Vec3::Zero());
+  const size_t n = ya.size();
+  for (size_t i = 0; i < n; ++i) {
+    ya[i] = row_product(i, a, ya);
+    yb[i] = row_product(i, b, yb);  // the row's blocks are still in L1
+  }
+}
+
 double CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale,
                                         double stiffness_scale, std::span<const double> masses,
                                         std::span<const char> fixed) const {
@@ -631,8 +642,22 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     assemble_stiffness();
   }
 
-  // Right-hand side h (f + f_ext - alpha M v) - h (beta + h) K' v, zero at fixed vertices.
-  apply_stiffness(v, kv_);
+  // Linear extrapolation of the last two steps' dv (session 4): the probe scene's steps need 7.4
+  // SSOR iterations on average instead of 8.0 from the last dv alone. A start worse than zero is
+  // still replaced by zero below; fixed vertices start (and stay) at zero.
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3 last = in.fixed[i] != 0 || !dv_[i].allFinite() ? Vec3::Zero() : dv_[i];
+    dv_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(2.0 * last - dv_previous_[i]);
+    dv_previous_[i] = last;
+  }
+  // Right-hand side h (f + f_ext - alpha M v) - h (beta + h) K' v, zero at fixed vertices. With the
+  // assembled K', K' dv of the warm start's residual comes from the same pass (q_).
+  const bool warm_product = stiffness_assembled_;
+  if (warm_product) {
+    apply_stiffness_pair(v, kv_, dv_, q_);
+  } else {
+    apply_stiffness(v, kv_);
+  }
   for (size_t i = 0; i < n; ++i) {
     rhs_[i] = in.fixed[i] != 0 ? Vec3::Zero()
                                : Vec3(h * (forces_[i] + in.external_forces[i] - alpha_ * in.masses[i] * v[i]) -
@@ -676,14 +701,6 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   }
 
   // Preconditioned conjugate gradients on (M + h D + h^2 K') dv = rhs, warm-started from the last dv.
-  // Linear extrapolation of the last two steps' dv (session 4): the probe scene's steps need 7.4
-  // SSOR iterations on average instead of 8.0 from the last dv alone. A start worse than zero is
-  // still replaced by zero below; fixed vertices start (and stay) at zero.
-  for (size_t i = 0; i < n; ++i) {
-    const Vec3 last = in.fixed[i] != 0 || !dv_[i].allFinite() ? Vec3::Zero() : dv_[i];
-    dv_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(2.0 * last - dv_previous_[i]);
-    dv_previous_[i] = last;
-  }
   const double rhs_norm = std::sqrt(dot(rhs_, rhs_));
   if (!std::isfinite(rhs_norm)) {
     // Non-finite input (e.g. a NaN applied force): NaN comparisons would skip the CG loop and
@@ -695,7 +712,13 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   } else if (rhs_norm == 0.0) {
     std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
   } else {
-    multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
+    if (warm_product) {
+      for (size_t i = 0; i < n; ++i) {
+        q_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * in.masses[i] * dv_[i] + stiffness_scale * q_[i]);
+      }
+    } else {
+      multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
+    }
     double rr = 0.0;
     for (size_t i = 0; i < n; ++i) {
       r_[i] = rhs_[i] - q_[i];

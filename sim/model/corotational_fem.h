@@ -111,6 +111,10 @@ class CorotationalFem final : public DeformationModel {
                          std::span<const double> masses, std::span<const char> fixed);
   /// CG with symmetric block Gauss-Seidel in Eisenstat's form (assembled K'; same inputs).
   CgOutcome solve_ssor(double residual, double rhs_norm, double stiffness_scale, std::span<const char> fixed);
+  /// ya = K' a and yb = K' b from the assembled blocks in one pass over the rows (each result as
+  /// apply_stiffness gives it, bit for bit).
+  void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
+                            std::span<Vec3> yb) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
