@@ -6,8 +6,10 @@
 //   extracted R), and f_e = -V P Dm^-T equals Mueller & Gross' f_e = -R K_e (R^T x_e - X_e).
 // - Step (Baraff & Witkin 1998 form, Mueller & Gross sec. 5): with K' = sum R K R^T frozen at x_n,
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
-//   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
-//   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
+//   v+ = v + dv, x+ = x + h v+. Solved by CG preconditioned by symmetric block Gauss-Seidel in
+//   Eisenstat's form (session 4; block-Jacobi with the matrix-free product or on request),
+//   warm-started from the extrapolation of the last two dv; fixed vertices are projected out (their
+//   rows and columns are zero, dv = 0).
 // - K' is assembled once per step into 3x3-block CSR rows (by vertex, upper triangle), row by row
 //   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
