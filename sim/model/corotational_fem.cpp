@@ -184,6 +184,35 @@ inline void add_stiffness_block(const double* __restrict ra, const double* __res
   B[8] += u2 * a2 + w2 * b2 + d;
 }
 
+/// The diagonal block R K_aa R^T = V ((mu + lambda) r_a r_a^T + mu |r_a|^2 I) (add_stiffness_block
+/// with b = a, symmetric: its six distinct entries computed once, 24 flops instead of 50).
+inline void add_diagonal_stiffness_block(const double* __restrict ra, double Vmu, double Vlambda,
+                                         double* __restrict B) {
+  const double a0 = ra[0], a1 = ra[1], a2 = ra[2];
+  const double k = Vmu + Vlambda, d = Vmu * (a0 * a0 + a1 * a1 + a2 * a2);
+  const double k0 = k * a0, k1 = k * a1, k2 = k * a2;
+  const double b01 = k0 * a1, b02 = k0 * a2, b12 = k1 * a2;
+  B[0] += k0 * a0 + d;
+  B[1] += b01;
+  B[2] += b02;
+  B[3] += b01;
+  B[4] += k1 * a1 + d;
+  B[5] += b12;
+  B[6] += b02;
+  B[7] += b12;
+  B[8] += k2 * a2 + d;
+}
+
+/// Adds the block (a, b) of a tet: the diagonal form for a = b. Every caller adds and takes out
+/// blocks through this function, so a block taken out is the value that was added.
+inline void add_tet_block(const RotatedGradients& g, size_t a, size_t b, double Vmu, double Vlambda, double* B) {
+  if (a == b) {
+    add_diagonal_stiffness_block(g.r[a], Vmu, Vlambda, B);
+  } else {
+    add_stiffness_block(g.r[a], g.r[b], Vmu, Vlambda, B);
+  }
+}
+
 }  // namespace
 
 void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
@@ -193,7 +222,7 @@ void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
   for (size_t a = 0; a < 4; ++a) {
     for (size_t b = 0; b < 4; ++b) {
       const int slot = slots[a * 4 + b];  // -1: the block is stored transposed, in the other row
-      if (slot >= 0) add_stiffness_block(g.r[a], g.r[b], Vmu, Vlambda, blocks_[static_cast<size_t>(slot)].data());
+      if (slot >= 0) add_tet_block(g, a, b, Vmu, Vlambda, blocks_[static_cast<size_t>(slot)].data());
     }
   }
 }
@@ -219,7 +248,7 @@ void CorotationalFem::assemble_stiffness() {
       const double Vmu = volume[t] * mu_, Vlambda = volume[t] * lambda_;
       const int* slots = tet_blocks_[t].data() + a * 4;
       for (size_t b = 0; b < 4; ++b) {
-        if (slots[b] >= 0) add_stiffness_block(g.r[a], g.r[b], Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
+        if (slots[b] >= 0) add_tet_block(g, a, b, Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
       }
     }
   }
