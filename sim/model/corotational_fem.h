@@ -6,8 +6,10 @@
 //   extracted R), and f_e = -V P Dm^-T equals Mueller & Gross' f_e = -R K_e (R^T x_e - X_e).
 // - Step (Baraff & Witkin 1998 form, Mueller & Gross sec. 5): with K' = sum R K R^T frozen at x_n,
 //   D = alpha M + beta K': (M + h D + h^2 K') dv = h (f(x) + f_ext - D v - h K' v),
-//   v+ = v + dv, x+ = x + h v+. Solved by block-Jacobi preconditioned CG, warm-started from the last
-//   dv; fixed vertices are projected out (their rows and columns are zero, dv = 0).
+//   v+ = v + dv, x+ = x + h v+. Solved by CG preconditioned by symmetric block Gauss-Seidel in
+//   Eisenstat's form (session 4; block-Jacobi with the matrix-free product or on request),
+//   warm-started from the extrapolation of the last two dv; fixed vertices are projected out (their
+//   rows and columns are zero, dv = 0).
 // - K' is assembled once per step into 3x3-block CSR rows (by vertex, upper triangle), row by row
 //   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
@@ -39,6 +41,12 @@ enum class StiffnessProduct {
   assembled,    ///< 3x3-block sparse matrix assembled once per step (default: faster, measured)
 };
 
+/// Preconditioner of the implicit step's conjugate gradients.
+enum class Preconditioner {
+  block_jacobi,  ///< inverse 3x3 diagonal blocks (the only choice with the matrix-free product)
+  ssor,          ///< symmetric block Gauss-Seidel, Eisenstat's form (default with the assembled K')
+};
+
 class CorotationalFem final : public DeformationModel {
  public:
   /// Precomputes inverse rest shapes; `product` selects how K' is applied in CG.
@@ -66,6 +74,10 @@ class CorotationalFem final : public DeformationModel {
   /// the assembled blocks when they are current (inside advance, after update_rotations), else the
   /// matrix-free product.
   void apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// Selects the CG preconditioner (ssor needs the assembled K'; block_jacobi otherwise).
+  void set_preconditioner(Preconditioner preconditioner) { preconditioner_kind_ = preconditioner; }
+  /// The CG preconditioner asked for (the matrix-free product always runs block-Jacobi).
+  Preconditioner preconditioner() const { return preconditioner_kind_; }
   /// True while the assembled K' matches the current rotations: set inside advance and by
   /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
   /// and by a query's full pass.
@@ -92,6 +104,20 @@ class CorotationalFem final : public DeformationModel {
   /// (K' p)_i from the upper-triangle row i plus the partial sum already in y_i; adds the row's
   /// transposed blocks times p_i to y_j, j > i.
   Vec3 row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
+  /// Iterations run and the final relative residual |rhs - A dv| / |rhs| of a CG solve.
+  struct CgOutcome {
+    int iterations = 0;
+    double residual = 0.0;
+  };
+  /// CG with block-Jacobi from the warm start in dv_ (its residual r_ and relative residual given).
+  CgOutcome solve_jacobi(double residual, double rhs_norm, double mass_scale, double stiffness_scale,
+                         std::span<const double> masses, std::span<const char> fixed);
+  /// CG with symmetric block Gauss-Seidel in Eisenstat's form (assembled K'; same inputs).
+  CgOutcome solve_ssor(double residual, double rhs_norm, double stiffness_scale, std::span<const char> fixed);
+  /// ya = K' a and yb = K' b from the assembled blocks in one pass over the rows (each result as
+  /// apply_stiffness gives it, bit for bit).
+  void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
+                            std::span<Vec3> yb) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
@@ -137,7 +163,10 @@ class CorotationalFem final : public DeformationModel {
 
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
-  std::vector<Mat3> preconditioner_;
+  std::vector<Vec3> dv_previous_;  ///< the dv of the step before the last
+  std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
+  std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
+  Preconditioner preconditioner_kind_ = Preconditioner::ssor;
 
   // Local queries (sim/model/corotational_local_query.cpp): each tet around the asked vertices is
   // evaluated once per query, into a slot; buffers sized on first use and kept.

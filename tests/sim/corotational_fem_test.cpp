@@ -333,6 +333,59 @@ double max_norm(std::span<const Vec3> a) {
   return d;
 }
 
+// The implicit step's CG with symmetric block Gauss-Seidel (Eisenstat's form, the default with the
+// assembled K') solves the same system as with block-Jacobi: both converged to 1e-12 give the same
+// steps (a second method). At the default tolerance the residual it reports is the true one,
+// |rhs - A dv| / |rhs|, recomputed here from the model's public forces and K' product, and it needs
+// fewer iterations than block-Jacobi for it.
+TEST(CorotationalFem, SsorAndBlockJacobiSolveTheSameStepAndTheReportedResidualIsTrue) {
+  SaggingBeam a, b;
+  CorotationalFem ssor(a.mesh, a.m, precise()), jacobi(b.mesh, b.m, precise());
+  jacobi.set_preconditioner(Preconditioner::block_jacobi);
+  EXPECT_EQ(ssor.preconditioner(), Preconditioner::ssor);
+  for (int s = 0; s < 4; ++s) {
+    const IntegrationResult ra = a.step(ssor), rb = b.step(jacobi);
+    EXPECT_TRUE(ra.converged);
+    EXPECT_TRUE(rb.converged);
+    EXPECT_LT(ra.solver_iterations, rb.solver_iterations);
+    EXPECT_LT(max_difference(a.v, b.v), 1e-8 * max_norm(b.v)) << s;
+    EXPECT_LT(max_difference(a.x, b.x), 1e-8 * max_norm(b.v) * 1e-2) << s;
+  }
+  // One step at the default tolerance (1e-6, cap 200): the true residual of the system
+  // ((1 + h alpha) M + h (beta + h) K') dv = h (f + f_ext - alpha M v) - h (beta + h) K' v.
+  for (auto kind : {Preconditioner::ssor, Preconditioner::block_jacobi}) {
+    SaggingBeam beam;
+    CorotationalFem model(beam.mesh, beam.m, precise(200, 1e-6));
+    model.set_preconditioner(kind);
+    for (int s = 0; s < 3; ++s) beam.step(model);
+    CorotationalFem reference = model;
+    reference.update_rotations(beam.x);
+    const double h = 1e-2, scale = h * (beam.m.stiffness_damping + h), mass_scale = 1.0 + h * beam.m.mass_damping;
+    std::vector<Vec3> f(beam.n), kv(beam.n), kdv(beam.n), dv(beam.n);
+    reference.internal_forces(beam.x, f);
+    reference.apply_stiffness(beam.v, kv);
+    const std::vector<Vec3> v0 = beam.v;
+    const IntegrationResult r = beam.step(model);
+    for (size_t i = 0; i < beam.n; ++i) dv[i] = beam.v[i] - v0[i];
+    reference.apply_stiffness(dv, kdv);
+    double rhs_sq = 0.0, res_sq = 0.0;
+    for (size_t i = 0; i < beam.n; ++i) {
+      if (beam.fixed[i] != 0) continue;
+      const Vec3 rhs = h * (f[i] + beam.ext[i] - beam.m.mass_damping * beam.masses[i] * v0[i]) - scale * kv[i];
+      const Vec3 lhs = mass_scale * beam.masses[i] * dv[i] + scale * kdv[i];
+      rhs_sq += rhs.squaredNorm();
+      res_sq += (rhs - lhs).squaredNorm();
+    }
+    const double true_residual = std::sqrt(res_sq / rhs_sq);
+    std::printf("%s: %d iterations, reported residual %.3e, true %.3e\n",
+                kind == Preconditioner::ssor ? "ssor" : "block-Jacobi", r.solver_iterations, r.solver_residual,
+                true_residual);
+    EXPECT_TRUE(r.converged);
+    EXPECT_LE(true_residual, 1e-6 * 1.01);
+    EXPECT_NEAR(r.solver_residual, true_residual, 1e-2 * true_residual + 1e-12);
+  }
+}
+
 // The model caches energy, forces and rotations at the positions of its last evaluation (advance
 // ends by evaluating at its result) and updates only the tets around a few moved vertices. Whatever
 // path a query takes, it must return what a fresh model evaluates at the same positions.
@@ -394,7 +447,14 @@ TEST(CorotationalFem, FrozenRotationQueryEqualsExactAtTheStepStateAndIsFirstOrde
   std::vector<Vec3> exact(vertices.size()), frozen(vertices.size()), at_state(vertices.size());
   model.internal_forces_at(beam.x, vertices, at_state);
   model.internal_forces_at_frozen_rotations(beam.x, vertices, frozen);
-  EXPECT_LT(max_difference(frozen, at_state), 1e-10 * max_norm(at_state));
+  // Equal up to the rotations' tolerance (1e-11 rad; the exact query warm-starts from the previous
+  // step's rotations, the frozen one uses those extracted at the step's result): relative to the
+  // body's elastic forces, not to the tip vertices' net force, which nearly cancels at this nearly
+  // static state (0.014 N against 6.6 N in the body; measured difference 7e-11 N, 4e-14 N when the
+  // 20 capped block-Jacobi iterations left the beam further from equilibrium).
+  std::vector<Vec3> body_forces(beam.n);
+  model.internal_forces(beam.x, body_forces);
+  EXPECT_LT(max_difference(frozen, at_state), 1e-10 * max_norm(body_forces));
   const double edge = 0.025;  // cell size (m)
   double previous_error = 0.0, ratio = 0.0;
   for (double fraction : {0.2, 0.1, 0.05, 0.025, 0.0125}) {
