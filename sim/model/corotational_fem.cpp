@@ -11,9 +11,6 @@ namespace pliant {
 
 namespace {
 
-constexpr int kRotationIterations = 30;
-constexpr double kRotationTolerance = 1e-11;  ///< rad; makes R^T F symmetric to ~1e-11
-
 /// A query whose positions differ from the cached state in more than 1/kIncrementalFraction of
 /// the vertices re-evaluates every tet instead of the tets around the changed vertices.
 constexpr size_t kIncrementalFraction = 16;
@@ -257,7 +254,7 @@ void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
   double energy = 0.0;
   for (size_t t = 0; t < nt; ++t) {
     const Mat3 F = deformation_gradient(x, static_cast<int>(t));
-    extract_rotation(F, rotations_[t], kRotationIterations, kRotationTolerance);
+    extract_rotation(F, rotations_[t], kElementRotationIterations, kElementRotationTolerance);
     const Mat3 R = rotations_[t].toRotationMatrix();
     const Mat3 DmInvT = rest_shape_inverse_[t].transpose();
     const Mat3 Rg = R * DmInvT;
@@ -312,7 +309,7 @@ void CorotationalFem::refresh_state(std::span<const Vec3> x) {
       const Mat3 R_old = rotations_[t].toRotationMatrix();
       scatter_tet(tet, -element_forces(t, F_old, R_old), forces_);
       const Mat3 F = deformation_gradient(x, ti);
-      extract_rotation(F, rotations_[t], kRotationIterations, kRotationTolerance);
+      extract_rotation(F, rotations_[t], kElementRotationIterations, kElementRotationTolerance);
       const Mat3 R = rotations_[t].toRotationMatrix();
       if (assembled) assemble_tet(t, rotated_gradients_[t], -1.0);
       rotated_gradients_[t] = R * rest_shape_inverse_[t].transpose();

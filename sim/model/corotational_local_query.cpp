@@ -22,10 +22,6 @@ namespace pliant {
 
 namespace {
 
-// As in corotational_fem.cpp: the lazily extracted rotations must be the full pass's.
-constexpr int kRotationIterations = 30;
-constexpr double kRotationTolerance = 1e-11;  ///< rad
-
 /// Local index (0..3) of vertex v in tet, or -1.
 inline int local_index(const TetIndices& tet, int v) {
   for (int j = 0; j < 4; ++j) {
@@ -88,7 +84,7 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
       if (fresh) {
         const Mat3 F = deformation_gradient(x, t);
         Quat q = rotations_[ts];  // warm start; the stored rotation is left as it is
-        extract_rotation(F, q, kRotationIterations, kRotationTolerance);
+        extract_rotation(F, q, kElementRotationIterations, kElementRotationTolerance);
         query_forces_[slot] = first_piola(F, q.toRotationMatrix());  // P
       }
       // -V P g_j per vertex-tet pair: the per-vertex query's expression, bit for bit (the held-force
@@ -111,7 +107,7 @@ Mat3 CorotationalFem::frozen_rotation(size_t t) {
   const Mat3 F = deformation_gradient(state_x_, static_cast<int>(t));
   if (frozen_cached_[t] == 0 || !same_bits(F, frozen_key_[t])) {
     Quat q = rotations_[t];  // the full pass's warm start (x_n's rotation)
-    extract_rotation(F, q, kRotationIterations, kRotationTolerance);
+    extract_rotation(F, q, kElementRotationIterations, kElementRotationTolerance);
     frozen_rotation_[t] = q.toRotationMatrix();
     frozen_key_[t] = F;
     frozen_cached_[t] = 1;

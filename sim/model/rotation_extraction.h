@@ -29,6 +29,11 @@
 
 namespace pliant {
 
+/// Iteration cap and tolerance (rad) of the corotational FEM's element rotations: the full pass and
+/// the lazy local queries must extract the same rotation from the same F and warm start.
+inline constexpr int kElementRotationIterations = 30;
+inline constexpr double kElementRotationTolerance = 1e-11;  ///< makes R^T F symmetric to ~1e-11
+
 /// Refines q (warm start, unit) towards the rotation of F; stops when the update angle (rad) is
 /// below `tolerance`, or after a Newton step of angle a with a^2 < tolerance (quadratic convergence:
 /// the error left is O(a^2)), or after `max_iterations`. Returns the iterations used (updates made).
