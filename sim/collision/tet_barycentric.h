@@ -29,7 +29,9 @@ struct TetBarycentricFrame {
   Vec3 row2 = Vec3::Zero();  ///< (x3-x0) x (x1-x0)
   Vec3 row3 = Vec3::Zero();  ///< (x1-x0) x (x2-x0)
   double det = 0.0;          ///< det(A) = 6 * signed volume (m^3); may be negative (inverted tet)
-  double max_edge_squared = 0.0;  ///< largest |x_k - x0|^2 (m^2)
+  /// (1e-12 x max(largest |coordinate|, longest edge from x0))^2 (m^2): the squared distance a point
+  /// may lie beyond an internal face and still count as on it (see the note).
+  double rounding_squared = 0.0;
   bool degenerate = true;    ///< |det| too small relative to the edge lengths: no point is inside
   Aabb box;                  ///< bounding box of the four corners
 
@@ -50,7 +52,8 @@ struct TetBarycentricFrame {
     f.det = e1.dot(f.row1);
     // Relative threshold: a sliver with |det| < 1e-14 * (max edge)^3 has no well-defined inside.
     const double scale = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
-    f.max_edge_squared = scale;
+    const double coordinates = std::max(f.box.min.cwiseAbs().maxCoeff(), f.box.max.cwiseAbs().maxCoeff());
+    f.rounding_squared = 1e-24 * std::max(coordinates * coordinates, scale);
     f.degenerate = !(std::abs(f.det) > 1e-14 * scale * std::sqrt(scale));
     return f;
   }
@@ -85,11 +88,12 @@ struct TetBarycentricFrame {
   /// 1e-12 x max(largest |coordinate| of the tet, longest edge from x0) (see the note). Compared
   /// squared, so rejecting a point costs no square root.
   bool within_rounding_of_face(int k, double b_k) const {
-    const double coordinates = std::max(box.min.cwiseAbs().maxCoeff(), box.max.cwiseAbs().maxCoeff());
-    const double scale_squared = std::max(coordinates * coordinates, max_edge_squared);  // m^2
-    const Vec3 normal = k == 0 ? Vec3(-(row1 + row2 + row3)) : (k == 1 ? row1 : (k == 2 ? row2 : row3));
     const double beyond = b_k * det;  // -(distance beyond the face) x |row_k| (m^3)
-    return beyond * beyond <= 1e-24 * scale_squared * normal.squaredNorm();
+    const double normal_squared = k == 0   ? (row1 + row2 + row3).squaredNorm()
+                                  : k == 1 ? row1.squaredNorm()
+                                  : k == 2 ? row2.squaredNorm()
+                                           : row3.squaredNorm();
+    return beyond * beyond <= rounding_squared * normal_squared;
   }
 
   /// Inside test for a tet of a body: `contains`, except that across a face shared with another tet
