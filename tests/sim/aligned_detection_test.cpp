@@ -11,6 +11,7 @@
 #include <numbers>
 #include <random>
 
+#include "sim/collision/penetration_depth.h"
 #include "sim/collision/spatial_hash.h"
 #include "sim/collision/tet_barycentric.h"
 #include "sim/mesh/box_mesh.h"
@@ -210,6 +211,58 @@ TEST(AlignedDetection, BlocksOverlappingByWholeCellsShareVertexPositions) {
 // vertex of a lower one on an edge of the one above): 9 x 9 interior vertices per side and contact.
 TEST(AlignedDetection, StackedMembranesAreFoundOnTheirNeighboursEdges) {
   check_stack({"membranes", {Vec3(0.2, 0.2, 0.004), 10, 10, 1}, 3, 0.0015, 81});
+}
+
+// Stages 1 and 2 on a block of 4 x 4 x 4 cells (0.1 m) sunk 0.05 m into a wider aligned block of
+// 8 x 8 x 4 cells of the same 0.025 m, centred on it: the small block's vertices lie on the wide
+// block's internal faces, edges and vertices. Every one of them below the wide block's top face is
+// found, with the exact depth (its distance to that face) and the face normal as direction: all
+// the involved hits lie inside the top face, whose vertex normals are the face normal, as in
+// penetration_depth_test's planar case. With the strict inside test of main (25ef599) the pose
+// rotated by 1.1 rad lost 5 of these 50 vertices (at both depths).
+TEST(AlignedDetection, AlignedBlockDepthsAreTheDistancesToTheTopFace) {
+  const auto wide = make_box_mesh({Vec3(0.2, 0.2, 0.1), 8, 8, 4});
+  const auto small = make_box_mesh({Vec3(0.1, 0.1, 0.1), 4, 4, 4});
+  const double top = 0.05, sink = 0.05;
+  const Vec3 shift(0.0, 0.0, top + 0.05 - sink);  // small block's centre (local frame)
+  SpatialHash hash;
+  PenetrationDepthSolver solver;
+  for (const auto& [q, t] : std::vector<std::pair<Quat, Vec3>>{
+           {Quat::Identity(), Vec3::Zero()},
+           {Quat(Eigen::AngleAxisd(1.1, Vec3(1, 2, 3).normalized())), Vec3(0.03, -0.02, 0.5)},
+           {Quat(Eigen::AngleAxisd(std::numbers::pi / 2, Vec3::UnitX())), Vec3(0.1, 0.2, 0.3)}}) {
+    SCOPED_TRACE(testing::Message() << "rotation " << q.coeffs().transpose());
+    std::vector<Vec3> xw, xs;
+    for (const Vec3& p : wide->rest_positions()) xw.push_back(q * p + t);
+    for (const Vec3& p : small->rest_positions()) xs.push_back(q * (p + shift) + t);
+    std::vector<CollisionBody> bodies(2);
+    bodies[0].mesh = wide.get();
+    bodies[0].positions = xw;
+    bodies[1].mesh = small.get();
+    bodies[1].positions = xs;
+    std::vector<VertexInTet> found;
+    hash.detect(bodies, CollisionFilter::from_bodies(bodies), found);
+    std::vector<VertexContact> contacts;
+    solver.compute(bodies, found, contacts);
+    ASSERT_EQ(contacts.size(), found.size());
+    const Vec3 normal = q * Vec3::UnitZ();
+    int checked = 0;
+    for (int v = 0; v < small->vertex_count(); ++v) {
+      const double depth = top - (small->rest_positions()[static_cast<size_t>(v)] + shift).z();
+      if (depth <= 1e-9) continue;  // on or above the top face
+      const auto it = std::find_if(contacts.begin(), contacts.end(), [&](const VertexContact& e) {
+        return e.body == 1 && e.vertex == v && e.penetrated_body == 0;
+      });
+      if (it == contacts.end()) {
+        ADD_FAILURE() << "vertex " << v << " at depth " << depth << " not found";
+        continue;
+      }
+      ++checked;
+      EXPECT_NEAR(it->penetration_depth, depth, 1e-9 * top) << "vertex " << v;
+      EXPECT_NEAR((it->penetration_direction - normal).norm(), 0.0, 1e-9) << "vertex " << v;
+    }
+    EXPECT_EQ(checked, 2 * 25);  // the layers 0.05 and 0.025 m deep, 5 x 5 vertices each
+  }
 }
 
 }  // namespace
