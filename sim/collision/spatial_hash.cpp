@@ -221,7 +221,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         }
         ++stats_.inside_tests;
         Vec4 bary;
-        if (frame.contains(hv.x, &bary)) {
+        if (frame.contains_in_body(hv.x, [&](int k) { return is_internal_tet_face(*cb.mesh, t, k); }, &bary)) {
           candidates_.push_back(VertexInTet{hv.body, hv.vertex, b, t, bary});
         }
       };

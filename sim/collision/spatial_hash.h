@@ -13,7 +13,9 @@
 // body they may touch (a tool's shaft, the tissue away from the tool: never inside a partner's
 // tet); pass 2 walks the cells covered by each tet's AABB for every body that may be penetrated,
 // after an out-code reject against the bounds of the inserted partner vertices, skips the tet's
-// own vertices, tests the AABB, then the barycentric coordinates. Candidates are sorted so the output is ordered by
+// own vertices, tests the AABB, then the barycentric coordinates (closed; within rounding across a
+// face shared with another tet, TetBarycentricFrame::contains_in_body, so a vertex on an internal
+// face or edge of an aligned body is not lost). Candidates are sorted so the output is ordered by
 // (body, vertex, penetrated body) and one tet per (vertex, penetrated body) is kept: the one with
 // the largest minimum barycentric coordinate (the tet the vertex is deepest in), ties by index.
 // Bodies filtered out cost nothing; no allocation happens once the buffers have grown.

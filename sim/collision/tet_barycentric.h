@@ -1,11 +1,23 @@
 // Barycentric coordinates of a point in a tetrahedron: the narrow-phase test of the spatial hash
 // (Teschner et al. 2003; algorithms.md section 1), shared with the brute-force oracle in the tests.
+//
+// Design note (issue #4). A point exactly on an internal face, edge or vertex of a body lies in the
+// closed tets on both sides, but rounding in the coordinates can put it "just outside" every one of
+// them (b_k ~ -1e-17 on the shared face), so a vertex deep inside an aligned body went undetected.
+// `contains_in_body` therefore accepts b_k down to a rounding tolerance across faces shared with
+// another tet (inside the body on either side); across a face on the body's surface the test stays
+// strict (b_k >= 0), so a point outside the body is still rejected by the surface face it lies
+// beyond. The tolerance is a distance beyond the face: 1e-12 x max(largest |coordinate| of the
+// tet, its longest edge), about 1e4 times the rounding of positions and of the coordinates (whose
+// error grows with the coordinates' magnitude, not only with the tet's size); b_k is converted to
+// that distance with the face's height |det| / |row_k|.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 
 #include "sim/math_types.h"
+#include "sim/mesh/tet_mesh.h"
 
 namespace pliant {
 
@@ -17,6 +29,9 @@ struct TetBarycentricFrame {
   Vec3 row2 = Vec3::Zero();  ///< (x3-x0) x (x1-x0)
   Vec3 row3 = Vec3::Zero();  ///< (x1-x0) x (x2-x0)
   double det = 0.0;          ///< det(A) = 6 * signed volume (m^3); may be negative (inverted tet)
+  /// (1e-12 x max(largest |coordinate|, longest edge from x0))^2 (m^2): the squared distance a point
+  /// may lie beyond an internal face and still count as on it (see the note).
+  double rounding_squared = 0.0;
   bool degenerate = true;    ///< |det| too small relative to the edge lengths: no point is inside
   Aabb box;                  ///< bounding box of the four corners
 
@@ -37,6 +52,8 @@ struct TetBarycentricFrame {
     f.det = e1.dot(f.row1);
     // Relative threshold: a sliver with |det| < 1e-14 * (max edge)^3 has no well-defined inside.
     const double scale = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
+    const double coordinates = std::max(f.box.min.cwiseAbs().maxCoeff(), f.box.max.cwiseAbs().maxCoeff());
+    f.rounding_squared = 1e-24 * std::max(coordinates * coordinates, scale);
     f.degenerate = !(std::abs(f.det) > 1e-14 * scale * std::sqrt(scale));
     return f;
   }
@@ -65,6 +82,58 @@ struct TetBarycentricFrame {
     }
     return false;
   }
+
+  /// Whether a negative coordinate b_k of a point (k = 0..3: the face opposite corner k) is within
+  /// rounding of that face: its distance beyond the face, -b_k |det| / |row_k|, is at most
+  /// 1e-12 x max(largest |coordinate| of the tet, longest edge from x0) (see the note). Compared
+  /// squared, so rejecting a point costs no square root.
+  bool within_rounding_of_face(int k, double b_k) const {
+    const double beyond = b_k * det;  // -(distance beyond the face) x |row_k| (m^3)
+    const double normal_squared = k == 0   ? (row1 + row2 + row3).squaredNorm()
+                                  : k == 1 ? row1.squaredNorm()
+                                  : k == 2 ? row2.squaredNorm()
+                                           : row3.squaredNorm();
+    return beyond * beyond <= rounding_squared * normal_squared;
+  }
+
+  /// Inside test for a tet of a body: `contains`, except that across a face shared with another tet
+  /// (`internal_face(k)` true for the face opposite corner k) a coordinate may be negative within
+  /// rounding (within_rounding_of_face). The coordinates are reported as computed (possibly that
+  /// negative).
+  template <class InternalFace>
+  bool contains_in_body(const Vec3& p, InternalFace&& internal_face, Vec4* barycentric_out = nullptr) const {
+    if (degenerate) return false;
+    if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) return false;
+    const Vec4 b = barycentric(p);
+    for (int k = 0; k < 4; ++k) {
+      if (b[k] >= 0.0) continue;
+      if (!within_rounding_of_face(k, b[k]) || !internal_face(k)) return false;
+    }
+    if (barycentric_out != nullptr) *barycentric_out = b;
+    return true;
+  }
 };
+
+/// Whether the face of `tet` opposite its corner k is shared with another tet (not a surface
+/// triangle). Cheap for faces with an interior corner; else a look-up among a corner's surface
+/// triangles.
+inline bool is_internal_tet_face(const TetMesh& mesh, int tet, int k) {
+  const TetIndices& t = mesh.tets()[static_cast<size_t>(tet)];
+  int face[3];
+  int n = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (i != k) face[n++] = t[static_cast<size_t>(i)];
+  }
+  for (int v : face) {
+    if (!mesh.is_surface_vertex(v)) return true;
+  }
+  for (int s : mesh.vertex_surface_triangles(face[0])) {
+    const TriIndices& tri = mesh.surface_triangles()[static_cast<size_t>(s)];
+    int shared = 0;
+    for (int v : tri) shared += (v == face[0] || v == face[1] || v == face[2]) ? 1 : 0;
+    if (shared == 3) return false;
+  }
+  return true;
+}
 
 }  // namespace pliant

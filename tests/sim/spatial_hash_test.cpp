@@ -24,7 +24,11 @@ namespace pliant {
 namespace {
 
 // Oracle: all vertex-tet pairs; per (vertex, penetrated body) the tet with the largest minimum
-// barycentric coordinate, ties by the smaller tet index (the documented choice).
+// barycentric coordinate, ties by the smaller tet index (the documented choice). The inside test is
+// the hash's closed one (contains_in_body: a coordinate may be negative within rounding across a
+// face shared with another tet). With the strict test the oracle missed a vertex of a folded bar
+// lying on an edge of another tet of the fold (every tet around the edge said "outside" by 1e-15),
+// the hole of issue #4 (aligned_detection_test.cpp).
 std::vector<VertexInTet> brute_force(std::span<const CollisionBody> bodies, const CollisionFilter& filter) {
   std::vector<VertexInTet> out;
   const int n = static_cast<int>(bodies.size());
@@ -45,7 +49,8 @@ std::vector<VertexInTet> brute_force(std::span<const CollisionBody> bodies, cons
           const auto f = TetBarycentricFrame::of(x[static_cast<size_t>(tet[0])], x[static_cast<size_t>(tet[1])],
                                                  x[static_cast<size_t>(tet[2])], x[static_cast<size_t>(tet[3])]);
           Vec4 bary;
-          if (f.contains(p, &bary) && bary.minCoeff() > best_min) {
+          const auto internal = [&](int k) { return is_internal_tet_face(*bb.mesh, t, k); };
+          if (f.contains_in_body(p, internal, &bary) && bary.minCoeff() > best_min) {
             best_min = bary.minCoeff();
             best = VertexInTet{a, v, b, t, bary};
           }
@@ -96,6 +101,17 @@ void expect_same(const std::vector<VertexInTet>& hash, const std::vector<VertexI
       }
     }
   }
+  if (hash.size() != brute.size()) {
+    for (const auto& h : hash) {
+      bool f = false;
+      for (const auto& b : brute) f = f || (h.body == b.body && h.vertex == b.vertex && h.penetrated_body == b.penetrated_body);
+      if (!f) {
+        const auto& p = bodies[static_cast<size_t>(h.body)].positions[static_cast<size_t>(h.vertex)];
+        ADD_FAILURE() << "extra " << h.body << " " << h.vertex << " in " << h.penetrated_body << " tet " << h.tet
+                      << " p " << p.transpose() << " bary " << h.barycentric.transpose();
+      }
+    }
+  }
   ASSERT_EQ(hash.size(), brute.size());
   for (size_t i = 0; i < hash.size(); ++i) {
     const auto& h = hash[i];
@@ -118,7 +134,14 @@ void expect_same(const std::vector<VertexInTet>& hash, const std::vector<VertexI
     EXPECT_NEAR(h.barycentric[1], sol[0], 1e-9);
     EXPECT_NEAR(h.barycentric[2], sol[1], 1e-9);
     EXPECT_NEAR(h.barycentric[3], sol[2], 1e-9);
-    EXPECT_GE(h.barycentric.minCoeff(), 0.0);
+    // A negative coordinate only within rounding of a face shared with another tet.
+    const auto f = TetBarycentricFrame::of(x[static_cast<size_t>(tet[0])], x[static_cast<size_t>(tet[1])],
+                                           x[static_cast<size_t>(tet[2])], x[static_cast<size_t>(tet[3])]);
+    for (int k = 0; k < 4; ++k) {
+      if (h.barycentric[k] >= 0.0) continue;
+      EXPECT_TRUE(f.within_rounding_of_face(k, h.barycentric[k])) << i << " " << h.barycentric.transpose();
+      EXPECT_TRUE(is_internal_tet_face(*pb.mesh, h.tet, k)) << i;
+    }
   }
 }
 
