@@ -76,6 +76,10 @@ Comparison compare_after(void (*build)(World&), int steps, bool probe) {
   for (World* w : {&a, &b}) {
     w->settings().contact.finishing_projection = false;  // the paper's search alone
     w->settings().contact.frozen_rotation_search = false;
+    // The paper's response alone, also without held forces (the default since session 4): they
+    // hold a resting dent closed (penetration 1.8e-6 m after 60 steps of the block case), and at
+    // such overlaps both searches pick the same sides bit for bit, so nothing would be compared.
+    w->settings().contact.held_force_fraction = 0.0;
     build(*w);
   }
   const BodyId sphere = probe ? a.body_id(1) : BodyId{};
