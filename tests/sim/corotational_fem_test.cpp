@@ -10,6 +10,7 @@
 
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
+#include "support/vec_compare.h"
 
 namespace pliant {
 namespace {
@@ -320,18 +321,6 @@ struct SaggingBeam {
     return out;
   }
 };
-
-double max_difference(std::span<const Vec3> a, std::span<const Vec3> b) {
-  double d = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
-  return d;
-}
-
-double max_norm(std::span<const Vec3> a) {
-  double d = 0.0;
-  for (const auto& v : a) d = std::max(d, v.norm());
-  return d;
-}
 
 // The implicit step's CG with symmetric block Gauss-Seidel (Eisenstat's form, the default with the
 // assembled K') solves the same system as with block-Jacobi: both converged to 1e-12 give the same

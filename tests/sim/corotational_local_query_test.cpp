@@ -11,6 +11,7 @@
 
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
+#include "support/vec_compare.h"
 
 namespace pliant {
 namespace {
@@ -53,18 +54,6 @@ struct SaggingBeam {
     return out;
   }
 };
-
-double max_difference(std::span<const Vec3> a, std::span<const Vec3> b) {
-  double d = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
-  return d;
-}
-
-double max_norm(std::span<const Vec3> a) {
-  double d = 0.0;
-  for (const auto& v : a) d = std::max(d, v.norm());
-  return d;
-}
 
 bool bitwise_equal(std::span<const Vec3> a, std::span<const Vec3> b) {
   if (a.size() != b.size()) return false;
