@@ -207,6 +207,7 @@ inline void add_tet_block(const RotatedGradients& g, size_t a, size_t b, double 
 }  // namespace
 
 void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
+  step_blocks_valid_ = false;  // the blocks no longer follow block_gradients_
   const RotatedGradients g(Rg);
   const double Vmu = sign * volume_[t] * mu_, Vlambda = sign * volume_[t] * lambda_;
   const auto& slots = tet_blocks_[t];
@@ -222,27 +223,71 @@ void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
 // vertex (ascending, the order a tet-by-tet scatter would add them in), so every block is written
 // while it is in L1 and the 3x3-block matrix streams out once. The tet-by-tet scatter it replaces
 // spent ~60% of its time waiting on first-touch cache misses in the 2 MB of blocks (perf, beam).
-void CorotationalFem::assemble_stiffness() {
-  const auto n = static_cast<size_t>(mesh_->vertex_count());
+void CorotationalFem::assemble_row(size_t i, const Mat3* gradients) {
   double* blocks = blocks_.data()->data();
-  const Mat3* rotated = rotated_gradients_.data();
   const double* volume = volume_.data();
   const TetCorner* corners = corners_.data();
-  for (size_t i = 0; i < n; ++i) {
-    const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
-    std::fill(blocks + 9 * first, blocks + 9 * last, 0.0);
-    const auto corners_end = static_cast<size_t>(corner_offsets_[i + 1]);
-    for (auto c = static_cast<size_t>(corner_offsets_[i]); c < corners_end; ++c) {
-      const auto t = static_cast<size_t>(corners[c].tet);
-      const auto a = static_cast<size_t>(corners[c].local);
-      const RotatedGradients g(rotated[t]);
-      const double Vmu = volume[t] * mu_, Vlambda = volume[t] * lambda_;
-      const int* slots = tet_blocks_[t].data() + a * 4;
-      for (size_t b = 0; b < 4; ++b) {
-        if (slots[b] >= 0) add_tet_block(g, a, b, Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
-      }
+  const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
+  std::fill(blocks + 9 * first, blocks + 9 * last, 0.0);
+  const auto corners_end = static_cast<size_t>(corner_offsets_[i + 1]);
+  for (auto c = static_cast<size_t>(corner_offsets_[i]); c < corners_end; ++c) {
+    const auto t = static_cast<size_t>(corners[c].tet);
+    const auto a = static_cast<size_t>(corners[c].local);
+    const RotatedGradients g(gradients[t]);
+    const double Vmu = volume[t] * mu_, Vlambda = volume[t] * lambda_;
+    const int* slots = tet_blocks_[t].data() + a * 4;
+    for (size_t b = 0; b < 4; ++b) {
+      if (slots[b] >= 0) add_tet_block(g, a, b, Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
     }
   }
+}
+
+void CorotationalFem::assemble_stiffness() {
+  const auto n = static_cast<size_t>(mesh_->vertex_count());
+  for (size_t i = 0; i < n; ++i) assemble_row(i, rotated_gradients_.data());
+  stiffness_assembled_ = true;
+  step_blocks_valid_ = false;
+  reassembled_rows_ = n;
+}
+
+// K' of a step with rotations reused within stiffness_rotation_tolerance_ (session 5): a tet's
+// blocks keep the rotated gradients they were built from (block_gradients_, rotation
+// block_rotations_) until its current rotation is more than the tolerance away from that one; only
+// the vertex rows around tets that moved further are summed again. Every row is the same function
+// of block_gradients_ as a full assembly would compute (no add/subtract drift). Tolerance 0: the
+// full assembly from the current rotations, bit for bit the exact path.
+void CorotationalFem::assemble_step_stiffness() {
+  if (!(stiffness_rotation_tolerance_ > 0.0)) {
+    assemble_stiffness();
+    return;
+  }
+  const auto n = static_cast<size_t>(mesh_->vertex_count());
+  const auto nt = static_cast<size_t>(mesh_->tet_count());
+  if (!step_blocks_valid_) {
+    block_rotations_ = rotations_;
+    block_gradients_ = rotated_gradients_;
+    for (size_t i = 0; i < n; ++i) assemble_row(i, block_gradients_.data());
+    stiffness_assembled_ = true;
+    step_blocks_valid_ = true;
+    reassembled_rows_ = n;
+    return;
+  }
+  // Angle between unit quaternions: |q . p| = cos(angle / 2).
+  const double min_cos = std::cos(0.5 * stiffness_rotation_tolerance_);
+  row_dirty_.assign(n, 0);
+  for (size_t t = 0; t < nt; ++t) {
+    if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
+    block_rotations_[t] = rotations_[t];
+    block_gradients_[t] = rotated_gradients_[t];
+    for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
+  }
+  size_t rows = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (row_dirty_[i] == 0) continue;
+    assemble_row(i, block_gradients_.data());
+    ++rows;
+  }
+  reassembled_rows_ = rows;
   stiffness_assembled_ = true;
 }
 
@@ -618,11 +663,8 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // Linearise at x_n: rotations, elastic forces f(x), rotated shape gradients for K'. The state
   // is usually cached already (the previous advance ended by computing it at these positions).
   const bool cached = state_valid_ && std::equal(x.begin(), x.end(), state_x_.begin(), same_bits);
-  if (!cached) {
-    linearise(x, true);
-  } else if (product_ == StiffnessProduct::assembled && !stiffness_assembled_) {
-    assemble_stiffness();
-  }
+  if (!cached) linearise(x, false);
+  if (product_ == StiffnessProduct::assembled && !stiffness_assembled_) assemble_step_stiffness();
 
   // Linear extrapolation of the last two steps' dv (session 4): the probe scene's steps need 7.4
   // SSOR iterations on average instead of 8.0 from the last dv alone. A start worse than zero is

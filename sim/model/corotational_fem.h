@@ -25,6 +25,12 @@
 //   re-evaluates only the tets around those vertices (and swaps their blocks in the assembled K'),
 //   and any other query a full pass. Every value
 //   returned is exact for the positions passed in (bitwise comparison); only the warm starts differ.
+// - K' reuse (session 5): advance keeps a tet's K' blocks from the rotation they were built from
+//   while its current rotation is within stiffness_rotation_tolerance (default 1e-3 rad) of it, and
+//   sums again only the vertex rows around tets that moved further. Forces and energies stay exact;
+//   the solve's matrix is R~ K R~^T with |R~ - R| <= the tolerance, so a step's v+ differs from the
+//   exact linearisation's by at most ~2 tolerance |v+| (tested). Tolerance 0 is the exact path, bit
+//   for bit the code before.
 #pragma once
 
 #include <array>
@@ -46,6 +52,9 @@ enum class Preconditioner {
   block_jacobi,  ///< inverse 3x3 diagonal blocks (the only choice with the matrix-free product)
   ssor,          ///< symmetric block Gauss-Seidel, Eisenstat's form (default with the assembled K')
 };
+
+/// Default rotation tolerance (rad) of K' reuse between steps (docs/deformation-models.md "K' reuse").
+inline constexpr double kDefaultStiffnessRotationTolerance = 1e-3;
 
 class CorotationalFem final : public DeformationModel {
  public:
@@ -82,6 +91,14 @@ class CorotationalFem final : public DeformationModel {
   /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
   /// and by a query's full pass.
   bool stiffness_is_assembled() const { return stiffness_assembled_; }
+  /// Reuses a tet's K' blocks in advance while its rotation stays within `radians` of the one they
+  /// were built from (0: K' from the current rotations every step, Mueller & Gross' linearisation
+  /// at x_n). Forces and energies are always exact; only the solve's matrix is approximated.
+  void set_stiffness_rotation_tolerance(double radians) { stiffness_rotation_tolerance_ = radians; }
+  /// The rotation tolerance (rad) of K' reuse; 0: none.
+  double stiffness_rotation_tolerance() const { return stiffness_rotation_tolerance_; }
+  /// Vertex rows of K' the last advance summed again (all of them without reuse).
+  size_t reassembled_rows() const { return reassembled_rows_; }
   /// Element rotation (from the last evaluation of the linearisation state).
   Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
   /// Deformation gradient F = Ds Dm^-1 of a tet at positions x.
@@ -101,6 +118,11 @@ class CorotationalFem final : public DeformationModel {
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
   /// Assembles K' row by row from the rotated shape gradients of every tet.
   void assemble_stiffness();
+  /// Sums vertex row i of K' from `gradients` (per tet, rotated shape gradients) of the tets around i.
+  void assemble_row(size_t i, const Mat3* gradients);
+  /// advance's K': assemble_stiffness, or only the rows around tets whose rotation left the
+  /// tolerance of stiffness_rotation_tolerance_.
+  void assemble_step_stiffness();
   /// (K' p)_i from the upper-triangle row i plus the partial sum already in y_i; adds the row's
   /// transposed blocks times p_i to y_j, j > i.
   Vec3 row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const;
@@ -160,6 +182,13 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> corner_offsets_;  ///< corners_ of vertex v: [corner_offsets_[v], corner_offsets_[v + 1])
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
+  // K' reuse (assemble_step_stiffness): the rotation and rotated gradients each tet's blocks hold.
+  double stiffness_rotation_tolerance_ = kDefaultStiffnessRotationTolerance;  ///< rad; 0: no reuse
+  std::vector<Quat> block_rotations_;
+  std::vector<Mat3> block_gradients_;
+  std::vector<char> row_dirty_;                ///< scratch: rows to sum again
+  bool step_blocks_valid_ = false;             ///< blocks_ = the rows of block_gradients_
+  size_t reassembled_rows_ = 0;
 
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;

@@ -346,6 +346,10 @@ TEST(CorotationalFem, SsorAndBlockJacobiSolveTheSameStepAndTheReportedResidualIs
     SaggingBeam beam;
     CorotationalFem model(beam.mesh, beam.m, precise(200, 1e-6));
     model.set_preconditioner(kind);
+    // The system of the exact linearisation at x_n: no K' reuse between steps (with the default
+    // 1e-3 rad reuse the solve's K' is the reused one, 2.4e-3 relative residual against this one;
+    // its own bound is tested in corotational_stiffness_reuse_test.cpp).
+    model.set_stiffness_rotation_tolerance(0.0);
     for (int s = 0; s < 3; ++s) beam.step(model);
     CorotationalFem reference = model;
     reference.update_rotations(beam.x);
