@@ -5,7 +5,8 @@
 //   vertex in contact faces the immovable probe, so the binary search has nothing to search;
 // - the paper's three cubes (assets/scenes/paper/three_cubes.json: three deformable cubes resting
 //   on a deformable membrane), run to t = 1.0 s (landed): deformable on deformable, every contact
-//   searches.
+//   searches;
+// - the paper's sphere squeeze (assets/scenes/paper/sphere_squeeze.json, session 5), run to t = 1 s.
 // Each benchmark then times only the respond stage of each further step (manual time: the stage
 // profiler), for 300 steps. Counters: colliding vertices per step, respond time per colliding
 // vertex (us).
@@ -74,6 +75,9 @@ void BM_ProbeRespond(benchmark::State& state) { run_respond_benchmark(state, "as
 void BM_ThreeCubesRespond(benchmark::State& state) {
   run_respond_benchmark(state, "assets/scenes/paper/three_cubes.json");
 }
+void BM_SphereSqueezeRespond(benchmark::State& state) {
+  run_respond_benchmark(state, "assets/scenes/paper/sphere_squeeze.json");
+}
 
 BENCHMARK(BM_ProbeRespond)
     ->Arg(static_cast<int>(Variant::surface))
@@ -88,6 +92,15 @@ BENCHMARK(BM_ThreeCubesRespond)
     ->Arg(static_cast<int>(Variant::surface_without_held_forces))
     ->Arg(static_cast<int>(Variant::penalty))
     ->Arg(static_cast<int>(Variant::surface_frozen_search))
+    ->ArgNames({"variant"})
+    ->UseManualTime()
+    ->Iterations(300)
+    ->Unit(benchmark::kMicrosecond);
+// Session 5 (issue 8's second scene): a sphere squeezed between two kinematic cuboids, nothing
+// searches (appended last so the others keep their ids).
+BENCHMARK(BM_SphereSqueezeRespond)
+    ->Arg(static_cast<int>(Variant::surface))
+    ->Arg(static_cast<int>(Variant::penalty))
     ->ArgNames({"variant"})
     ->UseManualTime()
     ->Iterations(300)

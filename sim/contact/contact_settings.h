@@ -29,6 +29,12 @@ struct ContactSettings {
   /// forces, the frozen search gains energy on a 1 mg body with a sliver tet, Stability test
   /// SurfaceMilligramBodyWithASliver 1.18x the work put in, and saves no measurable time).
   bool frozen_rotation_search = false;
+  /// Inside the binary search (not the final evaluation), an element rotation extracted by an
+  /// earlier query or step is reused while the element's deformation gradient moved by at most
+  /// this much (Frobenius norm of dF, dimensionless; DeformationModel::
+  /// internal_forces_at_nearby_rotations, docs/contact-surface.md "Speed (session 5)"). 0: every
+  /// search query extracts every rotation (exact).
+  double search_rotation_tolerance = 1e-3;
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0

@@ -38,8 +38,10 @@ void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>
 // pre-stressed beam, docs/deformation-models.md), so there it stays below the search's own
 // resolution 1 / 2^(n+1), with a margin of about 2.5. The others get the exact query. The final
 // evaluation passes n = 0 (always exact).
+// With `rotation_tolerance` > 0 the exact pass reuses rotations extracted earlier where the
+// element's F moved by at most that much (internal_forces_at_nearby_rotations; search only).
 void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region, bool search_only,
-                        int frozen_iterations) {
+                        int frozen_iterations, double rotation_tolerance = 0.0) {
   auto& vertices = region.vertices();
   const double resolution = std::ldexp(1.0, -(frozen_iterations + 1));
   for (auto& g : region.groups()) {
@@ -63,6 +65,9 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       g.query_forces.resize(g.query_vertices.size());
       if (frozen) {
         body.model->internal_forces_at_frozen_rotations(body.positions, g.query_vertices, g.query_forces);
+      } else if (rotation_tolerance > 0.0) {
+        body.model->internal_forces_at_nearby_rotations(body.positions, g.query_vertices, g.query_forces,
+                                                        rotation_tolerance);
       } else {
         body.model->internal_forces_at(body.positions, g.query_vertices, g.query_forces);
       }
@@ -318,7 +323,10 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // read: the fractions below still step as before (a zero displacement only ever goes further).
   const bool search = region_.has_searching_vertices();
   for (int k = 1; k <= iterations; ++k) {
-    if (search) evaluate_pressures(bodies, region_, true, settings.frozen_rotation_search ? iterations : 0);
+    if (search) {
+      evaluate_pressures(bodies, region_, true, settings.frozen_rotation_search ? iterations : 0,
+                         settings.search_rotation_tolerance);
+    }
     const double step = std::ldexp(1.0, -(k + 1));  // 1 / 2^(k+1)
     for (size_t i = 0; i < vertices.size(); ++i) {
       auto& v = vertices[i];

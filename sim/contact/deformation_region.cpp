@@ -117,7 +117,9 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
   std::sort(triples.begin(), triples.end(), [](const Triple& a, const Triple& b) {
     return a.owner != b.owner ? a.owner < b.owner : a.partner < b.partner;
   });
-  partners_.reserve(triples.size());
+  // Geometric growth (reserve(n) would set the capacity to exactly n, so every step with a region
+  // one partner larger than any before would reallocate).
+  if (partners_.capacity() < triples.size()) partners_.reserve(2 * triples.size());
   for (size_t i = 0; i < triples.size(); ++i) {
     auto& v = vertices_[static_cast<size_t>(triples[i].owner)];
     if (i == 0 || triples[i - 1].owner != triples[i].owner) v.partner_begin = static_cast<int>(partners_.size());

@@ -71,6 +71,12 @@ class CorotationalFem final : public DeformationModel {
   /// rotation change (docs/deformation-models.md gives the measured error).
   void internal_forces_at_frozen_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                            std::span<Vec3> f) override;
+  /// Forces at `vertices` reusing each element's last exactly extracted rotation R (any earlier
+  /// exact or nearby query) while |F - F_R|_F <= rotation_tolerance, with the warped-stiffness
+  /// stress R S(sym(R^T F)) (second-order error in the rotation error); elsewhere exact (and R
+  /// cached). Design note in corotational_local_query.cpp.
+  void internal_forces_at_nearby_rotations(std::span<const Vec3> x, std::span<const int> vertices,
+                                           std::span<Vec3> f, double rotation_tolerance) override;
   double elastic_energy(std::span<const Vec3> x) override;
   IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
@@ -215,6 +221,11 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> frozen_rotation_;   ///< per tet: rotation at the deferred state (cache)
   std::vector<Mat3> frozen_key_;        ///< per tet: F at state_x_ the cached rotation belongs to
   std::vector<char> frozen_cached_;     ///< per tet: 1 when the cache entry is filled
+  /// Records tet t's exactly extracted rotation R at deformation gradient F for nearby queries.
+  void remember_rotation(size_t t, const Mat3& F, const Mat3& R);
+  std::vector<Mat3> nearby_rotation_;   ///< per tet: last exactly extracted rotation
+  std::vector<Mat3> nearby_key_;        ///< per tet: the F it was extracted from
+  std::vector<char> nearby_cached_;     ///< per tet: 1 when filled
 };
 
 }  // namespace pliant

@@ -1,5 +1,6 @@
 // The contact-surface search with the model's frozen-rotation query (ContactSettings::
-// frozen_rotation_search, docs/contact-surface.md "Speed") against the same step with the exact
+// frozen_rotation_search, docs/contact-surface.md "Speed"), and with reused nearby rotations
+// (ContactSettings::search_rotation_tolerance, session 5), against the same step with the exact
 // query (a second method), from bit-identical states: two worlds built alike and stepped alike with
 // the exact query, then one step each way. After n bisection iterations a vertex's fraction is
 // known to 1 / 2^(n+1); a pressure error below that resolution can flip at most the decisions
@@ -69,13 +70,17 @@ struct Comparison {
   double elastic_difference = 0.0;  ///< relative difference of the first pair's elastic forces
 };
 
+void frozen_search(ContactSettings& contact) { contact.frozen_rotation_search = true; }
+
 // Steps two identical worlds `steps` times with the exact query, then once more, world b with the
-// frozen-rotation query, and compares.
-Comparison compare_after(void (*build)(World&), int steps, bool probe) {
+// search `approximate` sets (default: the frozen-rotation query), and compares.
+Comparison compare_after(void (*build)(World&), int steps, bool probe,
+                         void (*approximate)(ContactSettings&) = frozen_search) {
   World a, b;
   for (World* w : {&a, &b}) {
     w->settings().contact.finishing_projection = false;  // the paper's search alone
     w->settings().contact.frozen_rotation_search = false;
+    w->settings().contact.search_rotation_tolerance = 0.0;  // exact (the nearby query is approximate)
     // The paper's response alone, also without held forces (the default since session 4): they
     // hold a resting dent closed (penetration 1.8e-6 m after 60 steps of the block case), and at
     // such overlaps both searches pick the same sides bit for bit, so nothing would be compared.
@@ -85,7 +90,7 @@ Comparison compare_after(void (*build)(World&), int steps, bool probe) {
   const BodyId sphere = probe ? a.body_id(1) : BodyId{};
   Pose pose = probe ? a.body(sphere).pose : Pose{};
   for (int s = 0; s <= steps; ++s) {
-    if (s == steps) b.settings().contact.frozen_rotation_search = true;
+    if (s == steps) approximate(b.settings().contact);
     if (probe) {
       pose.translation.z() -= 1e-4;  // 0.1 m/s at dt 1 ms
       a.set_kinematic_pose(sphere, pose);
@@ -135,6 +140,45 @@ TEST(ContactFrozenRotation, ProbeSurfaceIsTheExactSearchs) {
     // Nothing searches against an immovable probe: the same surface, bit for bit; and since
     // session 4 the final evaluation (reported elastic force, held-force cap) is always exact, so
     // the reported force is the exact search's, bit for bit, too (it was 0.15% / 0.35% off).
+    EXPECT_EQ(c.max_difference, 0.0) << steps;
+    EXPECT_EQ(c.elastic_difference, 0.0) << steps;
+  }
+}
+
+// Session 5: the search reusing rotations extracted earlier (the last step's exact queries: the
+// worlds ran exact until the compared step) where the tet's F moved by at most the library's
+// default tolerance (ContactSettings::search_rotation_tolerance). Its force error (rotation error
+// about |dF| / 2 <= 5e-4, times the stress) is below the search's resolution, so the same bound as
+// the frozen search's holds: each vertex within 2 / 2^(n+1) of its displacement.
+void nearby_search(ContactSettings& contact) { contact.search_rotation_tolerance = ContactSettings{}.search_rotation_tolerance; }
+
+// Ten times the tolerance: large enough that the reuse changes a search decision here (so the
+// comparison sees that it was taken), and still within the bound.
+void coarse_nearby_search(ContactSettings& contact) {
+  contact.search_rotation_tolerance = 10.0 * ContactSettings{}.search_rotation_tolerance;
+}
+
+TEST(ContactNearbyRotation, BlockOnBlockSurfaceWithinOneBisectionStepOfTheExactSearch) {
+  ASSERT_GT(ContactSettings{}.search_rotation_tolerance, 0.0);
+  for (auto* search : {nearby_search, coarse_nearby_search}) {
+    double largest_difference = 0.0;
+    for (int steps : {20, 60, 200}) {  // landing, settling, resting
+      const Comparison c = compare_after(add_block_on_block, steps, false, search);
+      EXPECT_LE(c.max_difference, c.bound) << steps;
+      largest_difference = std::max(largest_difference, c.max_difference + c.elastic_difference);
+      // The final evaluation is exact: the elastic forces differ only where the search ended elsewhere.
+      EXPECT_LT(c.elastic_difference, 0.03) << steps;
+    }
+    // At the default tolerance every decision here is the exact search's (measured: bit for bit).
+    if (search == coarse_nearby_search) {
+      EXPECT_GT(largest_difference, 0.0) << "no rotation was reused";
+    }
+  }
+}
+
+TEST(ContactNearbyRotation, ProbeSurfaceIsTheExactSearchs) {
+  for (int steps : {30, 100}) {  // nothing searches against an immovable probe: bit for bit
+    const Comparison c = compare_after(add_probe, steps, true, nearby_search);
     EXPECT_EQ(c.max_difference, 0.0) << steps;
     EXPECT_EQ(c.elastic_difference, 0.0) << steps;
   }

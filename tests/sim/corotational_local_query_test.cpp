@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
@@ -137,6 +138,48 @@ TEST(CorotationalLocalQuery, FrozenQueryWithLazyRotationsIsTheQueryAfterTheFullP
     // whole-body query) makes the full pass.
     lazy.internal_forces(beam.x, forces);
   }
+}
+
+// The nearby-rotation query (session 5) against the exact query at the same positions: after an
+// exact query at a contact edit (which remembers each tet's rotation), positions moved by a small
+// extra push reuse those rotations where |dF| <= tolerance; the stress R S(sym(R^T F)) then differs
+// from the exact one by the rotation error (about |dF| / 2) times the stress, plus second order:
+// bound tolerance x the largest force (the first-order term with a factor 2 of margin). A large
+// push re-extracts every rotation: the exact query bit for bit; tolerance 0 is the exact query.
+TEST(CorotationalLocalQuery, NearbyRotationQueryIsTheExactQueryWithinTheTolerancesBound) {
+  SaggingBeam beam;
+  CorotationalFem model(beam.mesh, beam.m, {});
+  for (int s = 0; s < 8; ++s) beam.step(model, beam.x, beam.v);
+  const std::vector<int> patch = beam.patch();
+  auto pushed = [&](double dz) {
+    std::vector<Vec3> x = beam.x;
+    for (size_t k = 0; k < patch.size(); ++k) {
+      x[static_cast<size_t>(patch[k])] += Vec3(1e-4 * static_cast<double>(k % 3), 0.0, dz - 1e-4 * static_cast<double>(k));
+    }
+    return x;
+  };
+  const double tolerance = 1e-3;
+  std::vector<Vec3> exact(patch.size()), nearby(patch.size());
+  const std::vector<Vec3> x0 = pushed(-2e-3);
+  model.internal_forces_at(x0, patch, exact);  // remembers the rotations at x0
+  // 2 um more on 25 mm cells: |dF| ~ 1e-4 < tolerance: every rotation reused.
+  const std::vector<Vec3> x1 = pushed(-2.002e-3);
+  model.internal_forces_at_nearby_rotations(x1, patch, nearby, tolerance);
+  model.internal_forces_at(x1, patch, exact);
+  ASSERT_GT(max_norm(exact), 0.0);
+  const double error = max_difference(nearby, exact);
+  std::printf("nearby query: error %.3g of the largest force\n", error / max_norm(exact));
+  EXPECT_GT(error, 0.0) << "no rotation was reused";
+  EXPECT_LT(error, tolerance * max_norm(exact));
+  // 5 mm more (|dF| ~ 0.2): every touched tet re-extracted from the stored warm start: exact.
+  const std::vector<Vec3> x2 = pushed(-7e-3);
+  model.internal_forces_at_nearby_rotations(x2, patch, nearby, tolerance);
+  model.internal_forces_at(x2, patch, exact);
+  EXPECT_TRUE(bitwise_equal(nearby, exact));
+  // Tolerance 0: the exact query.
+  model.internal_forces_at_nearby_rotations(x1, patch, nearby, 0.0);
+  model.internal_forces_at(x1, patch, exact);
+  EXPECT_TRUE(bitwise_equal(nearby, exact));
 }
 
 }  // namespace
