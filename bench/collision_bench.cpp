@@ -162,7 +162,7 @@ void BM_PenetrationDepth(benchmark::State& state) {
       benchmark::Counter(points, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_PenetrationDepth)
-    ->Args({10000, 4, 1})->Args({100000, 4, 1})->Args({100000, 8, 1})
+    ->Args({1000, 4, 1})->Args({10000, 4, 1})->Args({30000, 4, 1})->Args({100000, 4, 1})->Args({100000, 8, 1})
     ->Args({10000, 4, 0})->Args({100000, 4, 0})->Args({100000, 8, 0})
     ->ArgNames({"tets", "cells", "moving"})->Unit(benchmark::kMillisecond);
 

@@ -33,24 +33,33 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
     // Vertex normals only where a hit needs them (vertex_normal), not for the whole surface.
     s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
     s.normal_epoch.resize(static_cast<size_t>(cb.mesh->vertex_count()), 0);
+    s.face_cross.resize(static_cast<size_t>(cb.mesh->surface_triangle_count()));
+    s.face_epoch.resize(static_cast<size_t>(cb.mesh->surface_triangle_count()), 0);
     s.built_in_call = call_;
   }
   return s;
+}
+
+const Vec3& PenetrationDepthSolver::face_cross(Surface& surface, int triangle) {
+  Vec3& c = surface.face_cross[static_cast<size_t>(triangle)];
+  if (surface.face_epoch[static_cast<size_t>(triangle)] != surface.bvh.pose_epoch()) {
+    const auto& tri = surface.bvh.mesh()->surface_triangles()[static_cast<size_t>(triangle)];
+    const std::span<const Vec3> x = surface.bvh.positions();
+    const Vec3& a = x[static_cast<size_t>(tri[0])];
+    c = (x[static_cast<size_t>(tri[1])] - a).cross(x[static_cast<size_t>(tri[2])] - a);
+    surface.face_epoch[static_cast<size_t>(triangle)] = surface.bvh.pose_epoch();
+  }
+  return c;
 }
 
 const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
   Vec3& n = surface.vertex_normals[static_cast<size_t>(v)];
   if (surface.normal_epoch[static_cast<size_t>(v)] != surface.bvh.pose_epoch()) {
     // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
-    // ascending triangle order (vertex_surface_triangles is sorted), then normalised.
-    const TetMesh& mesh = *surface.bvh.mesh();
-    const std::span<const Vec3> x = surface.bvh.positions();
+    // ascending triangle order (vertex_surface_triangles is sorted), then normalised. Each face's
+    // cross product is computed once per pose and shared by its three corners (same values).
     n.setZero();
-    for (int t : mesh.vertex_surface_triangles(v)) {
-      const auto& tri = mesh.surface_triangles()[static_cast<size_t>(t)];
-      const Vec3& a = x[static_cast<size_t>(tri[0])];
-      n += (x[static_cast<size_t>(tri[1])] - a).cross(x[static_cast<size_t>(tri[2])] - a);
-    }
+    for (int t : surface.bvh.mesh()->vertex_surface_triangles(v)) n += face_cross(surface, t);
     const double len = n.norm();
     if (len > 0.0) n /= len;
     surface.normal_epoch[static_cast<size_t>(v)] = surface.bvh.pose_epoch();

@@ -75,6 +75,8 @@ class PenetrationDepthSolver {
     SurfaceBvh bvh;
     std::vector<Vec3> vertex_normals;         ///< valid where normal_epoch equals bvh.pose_epoch()
     std::vector<std::uint64_t> normal_epoch;  ///< per vertex: bvh.pose_epoch() of its normal
+    std::vector<Vec3> face_cross;             ///< per surface triangle: (b - a) x (c - a), twice its area normal
+    std::vector<std::uint64_t> face_epoch;    ///< per surface triangle: bvh.pose_epoch() of face_cross
     std::uint64_t built_in_call = 0;  ///< call counter value when last brought to this call's positions
     int refits = 0;                   ///< full refits since the last build
   };
@@ -84,6 +86,8 @@ class PenetrationDepthSolver {
                    std::span<const int> group);
   Vec3 smoothed_normal(Surface& surface, const SurfacePoint& hit);
   const Vec3& vertex_normal(Surface& surface, int v);
+  /// (b - a) x (c - a) of a surface triangle at the current pose (computed once per pose).
+  const Vec3& face_cross(Surface& surface, int triangle);
 
   PenetrationDepthOptions options_;
   PenetrationDepthStats stats_;

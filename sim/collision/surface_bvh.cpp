@@ -28,13 +28,15 @@ struct SlabRay {
   // Does origin + t dir meet box for some t in [0, t_max]? Entry parameter in t_enter. The entry
   // only grows and the exit only shrinks axis by axis, so testing them once at the end (branch
   // free, the common case of no parallel axis) decides exactly as testing after every axis.
-  bool hits(const Aabb& box, double t_max, double& t_enter) const {
+  // The box is inflated by `slack` (m) on every side, computed as SurfaceBvh::query_box does
+  // (box.min - slack, box.max + slack; exact for slack = 0) without building the inflated box.
+  bool hits(const Aabb& box, double slack, double t_max, double& t_enter) const {
     double t0 = 0.0;
     double t1 = t_max;
     if (!any_parallel) {
       for (int k = 0; k < 3; ++k) {
-        const double ta = (box.min[k] - origin[k]) * inv[k];
-        const double tb = (box.max[k] - origin[k]) * inv[k];
+        const double ta = ((box.min[k] - slack) - origin[k]) * inv[k];
+        const double tb = ((box.max[k] + slack) - origin[k]) * inv[k];
         t0 = std::max(t0, std::min(ta, tb));
         t1 = std::min(t1, std::max(ta, tb));
       }
@@ -42,12 +44,13 @@ struct SlabRay {
       return t0 <= t1;
     }
     for (int k = 0; k < 3; ++k) {
+      const double lo = box.min[k] - slack, hi = box.max[k] + slack;
       if (parallel[k]) {
-        if (origin[k] < box.min[k] || origin[k] > box.max[k]) return false;
+        if (origin[k] < lo || origin[k] > hi) return false;
         continue;
       }
-      double ta = (box.min[k] - origin[k]) * inv[k];
-      double tb = (box.max[k] - origin[k]) * inv[k];
+      double ta = (lo - origin[k]) * inv[k];
+      double tb = (hi - origin[k]) * inv[k];
       if (ta > tb) std::swap(ta, tb);
       t0 = std::max(t0, ta);
       t1 = std::min(t1, tb);
@@ -223,7 +226,7 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
   double stack_t[kMaxStack];
   int top = 0;
   double t_enter = 0.0;
-  if (!ray.hits(query_box(0), best_t, t_enter)) return false;
+  if (!ray.hits(nodes_[0].box, slack_, best_t, t_enter)) return false;
   stack[top] = 0;
   stack_t[top++] = t_enter;
   while (top > 0) {
@@ -235,8 +238,8 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
       // Visit the nearer child first (pushed last).
       const int l = n + 1, r = node.first;
       double tl = 0.0, tr = 0.0;
-      const bool hl = ray.hits(query_box(l), best_t, tl);
-      const bool hr = ray.hits(query_box(r), best_t, tr);
+      const bool hl = ray.hits(nodes_[static_cast<size_t>(l)].box, slack_, best_t, tl);
+      const bool hr = ray.hits(nodes_[static_cast<size_t>(r)].box, slack_, best_t, tr);
       if (hl && hr) {
         const bool left_first = tl <= tr;
         stack[top] = left_first ? r : l;
