@@ -13,8 +13,12 @@
 // pose) are not detected. Its state stays bit-identical while it sleeps. A sleeping body counts as
 // immovable in contact (like a fixed support), and it wakes, within the same step, when a moving
 // body touches it: a kinematic body that moved this step (an instrument), or an awake deformable
-// body that left its rest ball in its last step (or has just been created or woken). Waking spreads
-// to sleeping bodies whose bounding boxes overlap a woken one (a pile wakes together).
+// body that left its rest ball in its last step (or has just been created). Such a deformable body
+// also wakes the sleepers whose bounding boxes come within `wake_margin` of its own, touching or
+// not (a body lying on one that moves away must not hover). Waking does not pass on: a woken body
+// keeps its rest anchor (it has not moved) and wakes its own neighbours only once it leaves that
+// ball (session 5; before, waking spread at once through every overlapping box, so in the fruit
+// dish one moving fruit woke the whole pile: docs/experiments.md "Session 5").
 // Instruments (kinematic bodies flagged Body::instrument: the scene's tools, not its fixtures,
 // floors or dishes) are different: a body an instrument touches (a colliding vertex either way
 // this step, or a contact of the last step that still holds a force) does not rest, so it never
@@ -36,7 +40,7 @@ struct SleepSettings {
   double time = 0.2;     ///< s of simulated time at rest before the body falls asleep
   /// m, the rest ball's radius: how far a vertex may move from the rest's anchor.
   double rest_distance() const { return speed * time; }
-  double wake_margin = 0.002;  ///< m, bounding boxes this close count as touching when waking spreads
+  double wake_margin = 0.002;  ///< m, a moving body wakes sleepers whose bounding boxes are this close to its own
 };
 
 /// A deformable body's sleep bookkeeping (kept in Body).
@@ -48,6 +52,8 @@ struct SleepState {
   double elastic_energy = 0.0; ///< J, the body's elastic energy when it fell asleep (positions frozen)
   bool has_elastic_energy = false;
   bool instrument_contact = false;  ///< an instrument touches the body this step (never rests)
+  Vec3 box_lo = Vec3::Zero();  ///< m, bounding box of the positions it fell asleep at (valid while asleep)
+  Vec3 box_hi = Vec3::Zero();  ///< m
 };
 
 }  // namespace pliant

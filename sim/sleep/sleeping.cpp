@@ -89,9 +89,10 @@ int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<Ve
 
 void wake_body(Body& body) {
   body.sleep.sleeping = false;
-  body.sleep.resting = false;
+  // Its rest goes on around the anchor it slept at (its positions have not changed since): it
+  // counts as moving, and wakes its sleeping neighbours, only once it leaves that ball.
+  body.sleep.resting = body.sleep.rest_anchor.size() == body.positions.size();
   body.sleep.rest_time = 0.0;
-  body.sleep.rest_anchor.clear();
   body.sleep.has_elastic_energy = false;
 }
 
@@ -122,13 +123,25 @@ int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexI
     const Body* b = bodies[i];
     if (b != nullptr && b->sleep.instrument_contact) wake(static_cast<int>(i));
   }
-  // Spread to sleeping neighbours (a body lying on a woken one must not hover).
-  for (size_t k = 0; k < woken.size(); ++k) {
-    const Box box = bounds(*bodies[static_cast<size_t>(woken[k])]);
-    for (size_t i = 0; i < bodies.size(); ++i) {
-      const Body* b = bodies[i];
-      if (b == nullptr || !b->is_sleeping()) continue;
-      if (box.overlaps(bounds(*b), settings.wake_margin)) wake(static_cast<int>(i));
+  // A deformable body that left its rest ball wakes the sleepers near it, touching or not (a body
+  // lying on one that moves away must not hover). Not transitively: a woken body wakes its own
+  // neighbours only once it leaves its ball in turn (before session 5 waking spread at once to
+  // every sleeper whose box overlapped a woken one, which in a pile woke the whole pile whenever
+  // any fruit moved: docs/experiments.md "Session 5").
+  std::vector<int> sleepers;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    if (bodies[i] != nullptr && bodies[i]->is_sleeping()) sleepers.push_back(static_cast<int>(i));
+  }
+  if (sleepers.empty()) return static_cast<int>(woken.size());
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const Body* mover = bodies[i];
+    if (mover == nullptr || mover->is_kinematic() || !moves(static_cast<int>(i))) continue;
+    const Box box = bounds(*mover);
+    for (int s : sleepers) {
+      const Body* b = bodies[static_cast<size_t>(s)];
+      if (!b->is_sleeping()) continue;
+      const Box sleeper{b->sleep.box_lo, b->sleep.box_hi};
+      if (box.overlaps(sleeper, settings.wake_margin)) wake(s);
     }
   }
   return static_cast<int>(woken.size());
@@ -141,10 +154,8 @@ int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& 
     Body* body = bodies[i];
     if (body == nullptr || body->is_kinematic()) continue;
     SleepState& sleep = body->sleep;
-    if (has_applied_force(*body)) {
-      wake_body(*body);
-      continue;
-    }
+    const bool pushed = has_applied_force(*body);
+    if (pushed && sleep.sleeping) wake_body(*body);
     if (sleep.sleeping) {
       ++asleep;
       continue;
@@ -158,9 +169,12 @@ int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& 
       sleep.rest_time = 0.0;
       sleep.rest_anchor = body->positions;  // reuses its capacity
     }
-    if (sleep.instrument_contact) sleep.rest_time = 0.0;  // under an instrument: never asleep
+    if (sleep.instrument_contact || pushed) sleep.rest_time = 0.0;  // under an instrument or a force: awake
     if (sleep.rest_time >= settings.time) {
       sleep.sleeping = true;
+      const Box box = bounds(*body);  // kept: a sleeper's positions do not change
+      sleep.box_lo = box.lo;
+      sleep.box_hi = box.hi;
       for (Vec3& v : body->velocities) v.setZero();
       sleep.has_elastic_energy = has_energy;
       sleep.elastic_energy = has_energy && i < body_energy.size() ? body_energy[i].elastic : 0.0;

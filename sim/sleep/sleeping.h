@@ -25,13 +25,15 @@ int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<Ve
                              std::span<const VertexContact> held);
 
 /// Wakes every sleeping body that a moving body touches in `colliding` (a kinematic body that
-/// moved this step, any instrument, or an awake deformable body that left its rest ball in its last step), and
-/// then, transitively, sleeping bodies whose bounding boxes (grown by settings.wake_margin) overlap
-/// a woken body. Returns the number of bodies woken.
+/// moved this step, any instrument, or an awake deformable body that left its rest ball in its
+/// last step), and every sleeping body whose bounding box comes within settings.wake_margin of an
+/// awake deformable body that left its rest ball (not transitively: a woken body keeps its anchor
+/// and is no mover until it leaves its own ball). Returns the number of bodies woken.
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
                         const SleepSettings& settings);
 
-/// Wakes one body now (velocities stay zero; it is integrated from the next step on).
+/// Wakes one body now (velocities stay zero; it is integrated from the next step on). Its rest
+/// anchor is kept: it rests where it slept until it leaves that ball.
 void wake_body(Body& body);
 
 /// After a step of dt (s): checks each awake deformable body against its rest ball

@@ -11,8 +11,11 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "sim/mesh/box_mesh.h"
+#include "sim/sleep/sleeping.h"
 #include "sim/world.h"
 #include <cstring>
 
@@ -368,6 +371,118 @@ TEST(Sleeping, TurningSleepingOffWakesEveryBody) {
   // Awake on the floor again: gravity pulls it back into contact with the floor.
   for (int i = 0; i < 5; ++i) s.world.step(kDt);
   EXPECT_GT(s.world.last_report().colliding_vertices, 0);
+}
+
+// Largest distance of any vertex from where it was.
+double max_displacement(const std::vector<Vec3>& x, const std::vector<Vec3>& x0) {
+  double d = 0.0;
+  for (size_t v = 0; v < x.size(); ++v) d = std::max(d, (x[v] - x0[v]).norm());
+  return d;
+}
+
+// Waking does not spread through a resting row (session 5: before, a woken body woke every sleeper
+// whose bounding box came within wake_margin of it, transitively, so in the fruit dish any fruit
+// that moved woke the whole pile). Four blocks sleep in a row on the floor, 1 mm apart (each box
+// within the 2 mm margin of the next); a fifth block lands on the first. The first wakes in the
+// step of contact; the others wake only if a neighbour leaves its rest ball (1 mm) and come within
+// the margin. The reference is the same scene with sleeping off: there the far blocks are never
+// touched (they stay within round-off of where they were), so nothing may wake them; and once the
+// load has settled every block is asleep again, the struck one where the sleeping-off run has it.
+TEST(Sleeping, WakingDoesNotSpreadThroughARestingRow) {
+  WorldSettings off = sleep_on();
+  off.sleep.enabled = false;
+  FloorAndBlock on_run(sleep_on(), 0.0), off_run(off, 0.0);  // block 0 resting on the floor at x = 0
+  std::vector<BodyId> row_on{on_run.block}, row_off{off_run.block};
+  for (int k = 1; k < 4; ++k) {
+    const Vec3 at(k * 0.051, 0, 0.025);  // 50 mm blocks, 1 mm gaps
+    row_on.push_back(FloorAndBlock::add_block(on_run.world, "row" + std::to_string(k), at));
+    row_off.push_back(FloorAndBlock::add_block(off_run.world, "row" + std::to_string(k), at));
+  }
+  for (int i = 0; i < 1500 && on_run.world.last_report().sleeping_bodies < 4; ++i) {
+    ASSERT_TRUE(on_run.world.step(kDt).all_finite);
+    ASSERT_TRUE(off_run.world.step(kDt).all_finite);
+  }
+  ASSERT_EQ(on_run.world.last_report().sleeping_bodies, 4) << "the row never fell asleep";
+  std::vector<std::vector<Vec3>> asleep_at;
+  for (BodyId id : row_on) asleep_at.push_back(on_run.world.body(id).positions);
+  // A block dropped 10 mm onto the first one (lands after sqrt(2 h / g) = 45 ms).
+  const BodyId top_on = FloorAndBlock::add_block(on_run.world, "top", Vec3(-0.005, 0, 0.05 + 0.01 + 0.025));
+  FloorAndBlock::add_block(off_run.world, "top", Vec3(-0.005, 0, 0.05 + 0.01 + 0.025));
+  std::vector<std::vector<Vec3>> off_before;
+  for (BodyId id : row_off) off_before.push_back(off_run.world.body(id).positions);
+  bool first_woke = false;
+  double far_moved_off = 0.0;
+  for (int i = 0; i < 1500; ++i) {
+    ASSERT_TRUE(on_run.world.step(kDt).all_finite);
+    ASSERT_TRUE(off_run.world.step(kDt).all_finite);
+    first_woke |= !on_run.world.body(row_on[0]).is_sleeping();
+    for (int k = 2; k < 4; ++k) {
+      far_moved_off = std::max(far_moved_off, max_displacement(off_run.world.body(row_off[k]).positions, off_before[k]));
+      // Blocks 2 and 3: nothing comes near them, so they sleep on, bit for bit.
+      ASSERT_TRUE(on_run.world.body(row_on[k]).is_sleeping()) << "block " << k << " woken at step " << i;
+      ASSERT_TRUE(bit_identical(on_run.world.body(row_on[k]).positions, asleep_at[k]));
+    }
+  }
+  EXPECT_TRUE(first_woke) << "the struck block never woke";
+  // Sleeping off, the far blocks only settle further on their own (measured 0.58 mm in 1.5 s),
+  // less than the rest distance: freezing them changes nothing the rest rule would not allow.
+  EXPECT_LT(far_moved_off, on_run.world.settings().sleep.rest_distance());
+  // The struck block and the landed one where the sleeping-off run has them. (They do not fall
+  // asleep again within 1.5 s: a block on a block keeps moving more than 1 mm per 0.2 s,
+  // docs/experiments.md "Session 5".)
+  EXPECT_LT(max_displacement(on_run.world.body(row_on[0]).positions, off_run.world.body(row_off[0]).positions),
+            2.0 * on_run.world.settings().sleep.rest_distance());
+  // The landed block rests on it as high as sleeping off has it (its sideways drift differs: 6.6 mm).
+  EXPECT_NEAR(min_z(on_run.world.body(top_on)), min_z(*off_run.world.bodies().back()),
+              2.0 * on_run.world.settings().sleep.rest_distance());
+}
+
+// The wake rule itself, on bodies whose sleep state is set by hand (no dynamics): three blocks in a
+// row 1 mm apart (each box within the 2 mm wake margin of the next), no vertex of one inside
+// another. The middle one awake, the outer ones asleep. If the middle one stayed inside its rest
+// ball in its last step it wakes nobody; if it left the ball it wakes both neighbours although it
+// touches neither (a body lying on one that moves away must not hover). A sleeper farther than the
+// margin stays asleep, and waking does not pass on: a woken body is not a mover until it leaves
+// its own ball (before session 5 a woken body woke every sleeper near it at once, transitively).
+TEST(Sleeping, OnlyABodyThatLeftItsRestBallWakesTheSleepersNearIt) {
+  World world(sleep_on());
+  std::vector<BodyId> ids;
+  for (int k = 0; k < 4; ++k) {
+    const double x = k < 3 ? k * 0.051 : 3 * 0.051 + 0.004;  // the fourth is 5 mm from the third
+    ids.push_back(FloorAndBlock::add_block(world, std::string(1, static_cast<char>('a' + k)), Vec3(x, 0, 0.5)));
+  }
+  auto set_asleep = [&](int k, bool asleep) {
+    Body& b = world.body(ids[static_cast<size_t>(k)]);
+    b.sleep.rest_anchor = b.positions;
+    b.sleep.sleeping = asleep;
+    b.sleep.resting = true;
+    Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+    for (const Vec3& x : b.positions) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    b.sleep.box_lo = lo;
+    b.sleep.box_hi = hi;
+  };
+  const std::vector<VertexInTet> none;  // no vertex inside another body
+  for (const bool left_ball : {false, true}) {
+    set_asleep(0, true);
+    set_asleep(1, false);
+    set_asleep(2, true);
+    set_asleep(3, true);
+    world.body(ids[1]).sleep.resting = !left_ball;
+    const int woken = wake_touched_bodies(world.bodies(), none, world.settings().sleep);
+    EXPECT_EQ(woken, left_ball ? 2 : 0);
+    EXPECT_EQ(world.body(ids[0]).is_sleeping(), !left_ball);
+    EXPECT_EQ(world.body(ids[2]).is_sleeping(), !left_ball);
+    // Body 3 is 4 mm beyond body 2's box (margin 2 mm): not near the mover, and body 2's waking
+    // does not pass on to it.
+    EXPECT_TRUE(world.body(ids[3]).is_sleeping());
+    // A woken body keeps its anchor: it is at rest where it slept, not a mover.
+    if (left_ball) {
+      EXPECT_TRUE(world.body(ids[2]).sleep.resting);
+    }
+  }
 }
 
 }  // namespace
