@@ -13,12 +13,14 @@
 //    which the contact's wave would have reached within the step, keeps moving, so the dent
 //    stores about (c_p dt)^2 / (h H) times the kinetic energy (H the body's height). The failing
 //    case stays DISABLED_ with its measured numbers.
+//  - the opt-in CFL limit on the search's displacement, on the two matrix cases it fixes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "sim/mesh/box_mesh.h"
+#include "sim/stability_harness.h"
 #include "sim/world.h"
 
 namespace pliant {
@@ -104,12 +106,32 @@ TEST(StabilityMechanism, DropOnAFloorBelowTheContactLayerCflLosesEnergy) {
 // CFL^2: the search's displacement (stage 4) dents the contact layer by the whole approach of the
 // step, which the velocity update (stage 5) does not pay for. A fix has to spread the step's
 // contact response over the depth its pressure wave reaches in dt (e.g. the displacement as a
-// constraint inside the implicit solve, or as a held force only); not done (docs/stability.md).
+// constraint inside the implicit solve, or as a held force only); not done (docs/stability.md). The
+// opt-in CFL limit brings it to 2.76x (friction's positional move is most of the rest: 1.21x
+// without friction).
 TEST(StabilityMechanism, DISABLED_DropOnAFloorAboveTheContactLayerCflLosesEnergy) {
   const Material m = tissue(1e4, 0.499);
   const double dt = 1e-3;
   ASSERT_GT(pressure_wave_speed(m) * dt / kCellHeight, 4.0);
   EXPECT_LE(drop_energy_ratio(m, dt), 1.1);
+}
+
+// The opt-in experiment against M1 (ContactSettings::cfl_limited_displacement: a vertex takes
+// 1/CFL^2 of the search's displacement where CFL > 1) on two matrix cases that fail at the library
+// defaults: nu 0.499 (1.77x the budget -> 0.84x) and stiffness ratio 1e6 (7.2e3x -> 0). It is not
+// the default: it fails four default-suite tests and makes dt 20 ms worse (docs/stability.md).
+TEST(StabilityMechanism, CflLimitedDisplacementKeepsNearlyIncompressibleAndStiffContactsWithinBudget) {
+  using stability::Case;
+  for (const bool incompressible : {true, false}) {
+    Case c{.name = incompressible ? "surface poisson 0.499, CFL-limited" : "surface ratio 1e6, CFL-limited"};
+    if (incompressible) {
+      c.poisson = 0.499;
+    } else {
+      c.stiffness_ratio = 1e6;
+    }
+    c.contact_tweak = [](ContactSettings& s) { s.cfl_limited_displacement = true; };
+    stability::expect_stable(c);
+  }
 }
 
 }  // namespace
