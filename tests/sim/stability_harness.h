@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -68,6 +69,9 @@ struct Case {
   /// Contact surface: ContactSettings::held_force_fraction (session 2: 0.8 fixes F1; 0 is the paper).
   double held_force_fraction = kHeldForceFraction;
   std::FILE* trace = nullptr;     ///< when set, one line per step: energies, work, overlap
+  /// Contact settings changed beyond the library defaults, for measuring a mechanism (none in the
+  /// matrix, which runs the defaults).
+  std::function<void(ContactSettings&)> contact_tweak;
 };
 
 /// gtest prints a parameter by its name.
@@ -178,6 +182,7 @@ inline WorldSettings world_settings(const Case& c) {
   settings.contact.method = c.method;
   settings.contact.finishing_projection = c.finishing_projection;
   settings.contact.held_force_fraction = c.held_force_fraction;
+  if (c.contact_tweak) c.contact_tweak(settings.contact);
   return settings;
 }
 
