@@ -88,6 +88,13 @@ double min_z(const Body& b) {
   return z;
 }
 
+/// Mean height of a body's vertices (its rest height; unlike min_z, blind to how it is tilted).
+double mean_z(const Body& b) {
+  double z = 0.0;
+  for (const Vec3& x : b.positions) z += x.z();
+  return z / static_cast<double>(b.positions.size());
+}
+
 TEST(Sleeping, BlockOnFloorFallsAsleepAndItsStateThenStopsChangingExactly) {
   FloorAndBlock s(sleep_on());
   std::vector<Vec3> before_sleep;
@@ -433,7 +440,10 @@ TEST(Sleeping, WakingDoesNotSpreadThroughARestingRow) {
   EXPECT_LT(max_displacement(on_run.world.body(row_on[0]).positions, off_run.world.body(row_off[0]).positions),
             2.0 * on_run.world.settings().sleep.rest_distance());
   // The landed block rests on it as high as sleeping off has it (its sideways drift differs: 6.6 mm).
-  EXPECT_NEAR(min_z(on_run.world.body(top_on)), min_z(*off_run.world.bodies().back()),
+  // Its mean height, not its lowest vertex: a block on a block rocks (the churn above), and a tilt
+  // of a few degrees moves its lowest corner by millimetres while its height stays (session-5
+  // merge: lowest vertex 45.8 vs 42.4 mm, the sleeping-off block tilted; mean 73.3 vs 73.0 mm).
+  EXPECT_NEAR(mean_z(on_run.world.body(top_on)), mean_z(*off_run.world.bodies().back()),
               2.0 * on_run.world.settings().sleep.rest_distance());
 }
 
