@@ -16,7 +16,8 @@
 //   slots of every tet are precomputed (no search during assembly). The matrix-free product per
 //   tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i, is kept as an option.
 // - Linearisation state (session 2): one pass over the tets gives, at positions x, the rotations,
-//   the elastic forces, the per-tet energies and the rotated shape gradients; it is cached together
+//   the elastic forces and the per-tet energies (the rotated shape gradients R Dm^-T are computed
+//   from the rotations by their readers since session 5: K' reuse reads only a few); it is cached together
 //   with a copy of x. `advance` defers that state at its new positions x_{n+1} to the first use
 //   (session 3): the energy report or the next step evaluate it at the positions they get, after
 //   the contact stage's edits, in one pass; the frozen-rotation query at x_{n+1}. K' is assembled
