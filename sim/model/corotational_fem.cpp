@@ -242,7 +242,19 @@ void CorotationalFem::assemble_row(size_t i, const Mat3* gradients) {
   }
 }
 
+Mat3 CorotationalFem::rotated_gradient(size_t t) const {
+  return rotations_[t].toRotationMatrix() * rest_shape_inverse_[t].transpose();
+}
+
+void CorotationalFem::refresh_rotated_gradients() const {
+  if (gradients_current_) return;
+  const auto nt = static_cast<size_t>(mesh_->tet_count());
+  for (size_t t = 0; t < nt; ++t) rotated_gradients_[t] = rotated_gradient(t);
+  gradients_current_ = true;
+}
+
 void CorotationalFem::assemble_stiffness() {
+  refresh_rotated_gradients();
   const auto n = static_cast<size_t>(mesh_->vertex_count());
   for (size_t i = 0; i < n; ++i) assemble_row(i, rotated_gradients_.data());
   stiffness_assembled_ = true;
@@ -264,6 +276,7 @@ void CorotationalFem::assemble_step_stiffness() {
   const auto n = static_cast<size_t>(mesh_->vertex_count());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   if (!step_blocks_valid_) {
+    refresh_rotated_gradients();
     block_rotations_ = rotations_;
     block_gradients_ = rotated_gradients_;
     for (size_t i = 0; i < n; ++i) assemble_row(i, block_gradients_.data());
@@ -278,7 +291,7 @@ void CorotationalFem::assemble_step_stiffness() {
   for (size_t t = 0; t < nt; ++t) {
     if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
     block_rotations_[t] = rotations_[t];
-    block_gradients_[t] = rotated_gradients_[t];
+    block_gradients_[t] = rotated_gradient(t);  // rotated_gradients_ may be stale (linearise)
     for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
   }
   size_t rows = 0;
@@ -301,16 +314,17 @@ void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
     const Mat3 F = deformation_gradient(x, static_cast<int>(t));
     extract_rotation(F, rotations_[t], kElementRotationIterations, kElementRotationTolerance);
     const Mat3 R = rotations_[t].toRotationMatrix();
-    const Mat3 DmInvT = rest_shape_inverse_[t].transpose();
-    const Mat3 Rg = R * DmInvT;
-    rotated_gradients_[t] = Rg;
+    // The rotated shape gradients R Dm^-T are left to their readers (rotated_gradient(t)); the
+    // trace and F - R are shared by the energy and P (first_piola's expressions, bit for bit).
     const double trace = R.cwiseProduct(F).sum() - 3.0;
     const Mat3 FmR = F - R;
     const double e = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
     tet_energy_[t] = e;
     energy += e;
-    scatter_tet(mesh_->tets()[t], element_forces(t, F, R), forces_);
+    const Mat3 P = 2.0 * mu_ * FmR + lambda_ * trace * R;
+    scatter_tet(mesh_->tets()[t], -volume_[t] * P * rest_shape_inverse_[t].transpose(), forces_);
   }
+  gradients_current_ = false;
   if (assemble) assemble_stiffness();
   energy_ = energy;
   if (x.data() != state_x_.data()) std::copy(x.begin(), x.end(), state_x_.begin());
@@ -510,6 +524,7 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
     for (size_t i = 0; i < n; ++i) y[i] = row_product(i, p, y);
     return;
   }
+  refresh_rotated_gradients();
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   for (size_t t = 0; t < nt; ++t) {
     const auto& tet = mesh_->tets()[t];
@@ -696,6 +711,7 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
       preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(diagonal_blocks_[i])];
     }
   }
+  if (product_ == StiffnessProduct::matrix_free) refresh_rotated_gradients();
   for (size_t t = 0; t < nt && product_ == StiffnessProduct::matrix_free; ++t) {
     const Mat3& Rg = rotated_gradients_[t];
     const auto& tet = mesh_->tets()[t];

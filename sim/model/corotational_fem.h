@@ -16,7 +16,8 @@
 //   slots of every tet are precomputed (no search during assembly). The matrix-free product per
 //   tet, A = sum_j p_j r_j^T, (K' p)_i = V (mu (A + A^T) + lambda tr(A) I) r_i, is kept as an option.
 // - Linearisation state (session 2): one pass over the tets gives, at positions x, the rotations,
-//   the elastic forces, the per-tet energies and the rotated shape gradients; it is cached together
+//   the elastic forces and the per-tet energies (the rotated shape gradients R Dm^-T are computed
+//   from the rotations by their readers since session 5: K' reuse reads only a few); it is cached together
 //   with a copy of x. `advance` defers that state at its new positions x_{n+1} to the first use
 //   (session 3): the energy report or the next step evaluate it at the positions they get, after
 //   the contact stage's edits, in one pass; the frozen-rotation query at x_{n+1}. K' is assembled
@@ -120,6 +121,11 @@ class CorotationalFem final : public DeformationModel {
   /// Makes the cached state belong to x: nothing if x is the cached positions, the tets around the
   /// changed vertices if few changed, else a full pass.
   void refresh_state(std::span<const Vec3> x);
+  /// Rotated shape gradients R Dm^-T of tet t from its current rotation (bit for bit what
+  /// rotated_gradients_ hold when current).
+  Mat3 rotated_gradient(size_t t) const;
+  /// Fills rotated_gradients_ from rotations_ unless they are current.
+  void refresh_rotated_gradients() const;
   /// Adds sign times the tet's R K_e R^T blocks (from its rotated shape gradients) to the assembled K'.
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
   /// Assembles K' row by row from the rotated shape gradients of every tet.
@@ -164,7 +170,10 @@ class CorotationalFem final : public DeformationModel {
 
   // Linearisation state at positions state_x_ (valid when state_valid_).
   std::vector<Quat> rotations_;
-  std::vector<Mat3> rotated_gradients_;  ///< columns V-free r_1..r_3 = R Dm^-T columns
+  /// Columns V-free r_1..r_3 = R Dm^-T columns; filled on demand from rotations_ (session 5: the
+  /// full pass does not write them, most steps read only the few of tets whose K' blocks change).
+  mutable std::vector<Mat3> rotated_gradients_;
+  mutable bool gradients_current_ = true;  ///< rotated_gradients_ belong to rotations_
   std::vector<double> tet_energy_;       ///< elastic energy per tet (J)
   std::vector<Vec3> forces_;             ///< elastic forces (N)
   double energy_ = 0.0;                  ///< sum of tet_energy_ (J)
