@@ -37,8 +37,10 @@ struct ChurnRun {
   double positional_speed_max = 0.0;  ///< largest |x_{n+1} - x_n| / dt over the same steps (m/s)
 };
 
-// `blocks` free 30 mm stiff blocks (2x2x2 cells) stacked on a kinematic floor, 0.7 s of steps dt.
-ChurnRun run_stack(int blocks, double mu, double dt) {
+// `blocks` free 30 mm stiff blocks (2x2x2 cells) stacked on a kinematic floor, 0.7 s of steps dt;
+// with `fixed_base` the lowest block's bottom vertices are fixed (a deformable support without
+// rigid modes, like tissue fixed at its base).
+ChurnRun run_stack(int blocks, double mu, double dt, bool fixed_base = false) {
   World world;
   world.settings().contact.held_force_fraction = 1.0;
   world.settings().contact.friction = mu > 0.0;
@@ -49,6 +51,9 @@ ChurnRun run_stack(int blocks, double mu, double dt) {
   for (int k = 0; k < blocks; ++k) {
     BodyDef block{.name = "block" + std::to_string(k), .mesh = mesh, .material = stiff_block(mu)};
     block.pose.translation = Vec3(0.003 * k, -0.002 * k, 0.015 + 0.03 * k);
+    for (int v = 0; fixed_base && k == 0 && v < mesh->vertex_count(); ++v) {
+      if (mesh->rest_positions()[static_cast<size_t>(v)].z() < -0.0149) block.fixed_vertices.push_back(v);
+    }
     ids.push_back(world.add_body(block));
     mass += world.body(ids.back()).total_mass();
   }
@@ -103,6 +108,14 @@ TEST(ContactRestingChurn, DISABLED_TwoBlocksStackedRestAtOneMillisecond) {
   expect_rest(run_stack(2, 0.0, 1e-3), 1e-3);
   const ChurnRun with_friction = run_stack(2, 0.5, 1e-3);
   EXPECT_LT(with_friction.kinetic_late_max, with_friction.rest_floor);
+}
+
+// KNOWN FAILURE (session 5): a free block on a block whose bottom is fixed (a support without
+// rigid modes, so its side of the take-back is the vertex-mass one) churns far more: late KE
+// 6.5e-3 J at dt 1 ms (floor 2.6e-6 J, stored / positional 1068 / 1370 mm/s) and 1.0e-4 J at
+// 0.5 ms (floor 6.5e-7 J), where the free stack rests.
+TEST(ContactRestingChurn, DISABLED_BlockOnAFixedBaseBlockRestsAtHalfTheStep) {
+  expect_rest(run_stack(2, 0.0, 5e-4, true), 5e-4);
 }
 
 }  // namespace
