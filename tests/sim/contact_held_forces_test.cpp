@@ -118,7 +118,9 @@ TEST(ContactHeldForces, FreeStiffBlockRestsOnAFloorWithItsWeightAndNoBounce) {
 // Session 5 (main f032dc6): upper on lower -7.2%, rise 0.052 m/s, KE 2.95e-4 J: a ~100 Hz
 // oscillation from the start that grows (KE 1e-6 -> 2e-4 J by step 520); with stiffness damping
 // 1e-2 instead of 1e-3 it rests (KE 3e-8 J, forces within 1%), mass damping does not help
-// (docs/stability.md, "The block stack").
+// (docs/stability.md, "The block stack"). Session 5 (churn): stage 5 never adds kinetic energy
+// here, the stack rests at dt 0.5 ms; tests/sim/contact_resting_churn_test.cpp and
+// docs/contact-surface.md, "Resting churn (session 5)".
 TEST(ContactHeldForces, DISABLED_StackOfFreeStiffBlocksRestsWithBothWeightsAndNoBounce) {
   const RestResult r = rest_on_floor(true);
   const double both = r.weight_lower + r.weight_upper;

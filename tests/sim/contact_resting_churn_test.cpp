@@ -1,0 +1,122 @@
+// Resting churn (docs/contact-surface.md, "Resting churn (session 5)", issues #5 and #8): bodies
+// resting on bodies must come to rest. Reference: a body at rest under gravity gains g dt of speed
+// per step, which the contact's velocity update takes away again, so after settling its kinetic
+// energy stays below (1/2) M (g dt)^2, one step's gravity on the resting mass; a stage that injects
+// energy makes it grow past that instead. Its stored vertex speeds stay within what its positions
+// do plus one step's gravity (a velocity the next step's response takes away again is churn).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "sim/mesh/box_mesh.h"
+#include "sim/world.h"
+
+namespace pliant {
+namespace {
+
+constexpr double kG = 9.81;  // m/s^2, WorldSettings' default gravity
+
+Material stiff_block(double mu) {
+  Material m;
+  m.young_modulus = 1e6;
+  m.poisson_ratio = 0.3;
+  m.density = 1000.0;
+  m.mass_damping = 0.0;
+  m.stiffness_damping = 1e-3;
+  m.friction = mu;
+  return m;
+}
+
+struct ChurnRun {
+  double kinetic_late_max = 0.0;      ///< largest kinetic energy over the last 2/7 of the run (J)
+  double rest_floor = 0.0;            ///< (1/2) M (g dt)^2 over the free mass M (J)
+  double stored_speed_max = 0.0;      ///< largest stored vertex speed over the same steps (m/s)
+  double positional_speed_max = 0.0;  ///< largest |x_{n+1} - x_n| / dt over the same steps (m/s)
+};
+
+// `blocks` free 30 mm stiff blocks (2x2x2 cells) stacked on a kinematic floor, 0.7 s of steps dt;
+// with `fixed_base` the lowest block's bottom vertices are fixed (a deformable support without
+// rigid modes, like tissue fixed at its base).
+ChurnRun run_stack(int blocks, double mu, double dt, bool fixed_base = false) {
+  World world;
+  world.settings().contact.held_force_fraction = 1.0;
+  world.settings().contact.friction = mu > 0.0;
+  world.settings().contact.finishing_projection = true;
+  const auto mesh = make_box_mesh({Vec3(0.03, 0.03, 0.03), 2, 2, 2});
+  std::vector<BodyId> ids;
+  double mass = 0.0;
+  for (int k = 0; k < blocks; ++k) {
+    BodyDef block{.name = "block" + std::to_string(k), .mesh = mesh, .material = stiff_block(mu)};
+    block.pose.translation = Vec3(0.003 * k, -0.002 * k, 0.015 + 0.03 * k);
+    for (int v = 0; fixed_base && k == 0 && v < mesh->vertex_count(); ++v) {
+      if (mesh->rest_positions()[static_cast<size_t>(v)].z() < -0.0149) block.fixed_vertices.push_back(v);
+    }
+    ids.push_back(world.add_body(block));
+    mass += world.body(ids.back()).total_mass();
+  }
+  BodyDef floor{.name = "floor", .mesh = make_box_mesh({Vec3(0.5, 0.5, 0.02), 4, 4, 1}),
+                .material = stiff_block(mu), .motion = BodyMotion::kinematic};
+  floor.pose.translation = Vec3(0, 0, -0.01);
+  world.add_body(floor);
+
+  ChurnRun out;
+  out.rest_floor = 0.5 * mass * (kG * dt) * (kG * dt);
+  const int steps = static_cast<int>(std::lround(0.7 / dt));
+  std::vector<std::vector<Vec3>> previous(ids.size());
+  for (int i = 1; i <= steps; ++i) {
+    for (size_t k = 0; k < ids.size(); ++k) previous[k] = world.body(ids[k]).positions;
+    const StepReport& r = world.step(dt);
+    EXPECT_EQ(r.fault, StepFault::none) << i;
+    if (i <= steps * 5 / 7) continue;
+    out.kinetic_late_max = std::max(out.kinetic_late_max, r.energy.kinetic);
+    for (size_t k = 0; k < ids.size(); ++k) {
+      const Body& b = world.body(ids[k]);
+      for (size_t v = 0; v < b.positions.size(); ++v) {
+        out.stored_speed_max = std::max(out.stored_speed_max, b.velocities[v].norm());
+        out.positional_speed_max = std::max(out.positional_speed_max, (b.positions[v] - previous[k][v]).norm() / dt);
+      }
+    }
+  }
+  return out;
+}
+
+void expect_rest(const ChurnRun& r, double dt) {
+  EXPECT_LT(r.kinetic_late_max, r.rest_floor);
+  EXPECT_LE(r.stored_speed_max, r.positional_speed_max + kG * dt);
+}
+
+// One free block with friction (mu 0.5) on a kinematic floor, dt 1 ms: it rests (measured: KE
+// 4.8e-7 J against the floor 1.3e-6 J; stored speed 10.1 mm/s, positional 10.3 mm/s).
+TEST(ContactRestingChurn, OneBlockOnAFloorWithFrictionRests) { expect_rest(run_stack(1, 0.5, 1e-3), 1e-3); }
+
+// Two free blocks stacked, at half the step (c_p dt / h = 1.2): they rest, without and with
+// friction (measured: KE 9.7e-8 J and 2.0e-7 J against the floor 6.5e-7 J).
+TEST(ContactRestingChurn, TwoBlocksStackedRestAtHalfTheStep) {
+  expect_rest(run_stack(2, 0.0, 5e-4), 5e-4);
+  const ChurnRun with_friction = run_stack(2, 0.5, 5e-4);
+  EXPECT_LT(with_friction.kinetic_late_max, with_friction.rest_floor);
+}
+
+// KNOWN FAILURE (session 5): at dt 1 ms (c_p dt / h = 2.4) the stack churns: late KE 4.1e-5 J
+// (16x the floor 2.6e-6 J), positional speed 152 mm/s against stored 87 mm/s (the positions move
+// more than the velocities: the stage-3/4 displacement, not stage 5, moves them). With mu 0.5:
+// KE 1.4e-5 J, 53 vs 46 mm/s. See docs/contact-surface.md, "Resting churn (session 5)".
+TEST(ContactRestingChurn, DISABLED_TwoBlocksStackedRestAtOneMillisecond) {
+  expect_rest(run_stack(2, 0.0, 1e-3), 1e-3);
+  const ChurnRun with_friction = run_stack(2, 0.5, 1e-3);
+  EXPECT_LT(with_friction.kinetic_late_max, with_friction.rest_floor);
+}
+
+// KNOWN FAILURE (session 5): a free block on a block whose bottom is fixed (a support without
+// rigid modes, so its side of the take-back is the vertex-mass one) churns far more: late KE
+// 6.5e-3 J at dt 1 ms (floor 2.6e-6 J, stored / positional 1068 / 1370 mm/s) and 1.0e-4 J at
+// 0.5 ms (floor 6.5e-7 J), where the free stack rests.
+TEST(ContactRestingChurn, DISABLED_BlockOnAFixedBaseBlockRestsAtHalfTheStep) {
+  expect_rest(run_stack(2, 0.0, 5e-4, true), 5e-4);
+}
+
+}  // namespace
+}  // namespace pliant
