@@ -1,6 +1,8 @@
 // Material parameters of a body, SI units.
 #pragma once
 
+#include <cmath>
+
 namespace pliant {
 
 struct Material {
@@ -17,6 +19,8 @@ struct Material {
   }
   /// Shear modulus mu (Pa).
   double lame_mu() const { return young_modulus / (2.0 * (1.0 + poisson_ratio)); }
+  /// Pressure (P-) wave speed c_p = sqrt((lambda + 2 mu) / rho) (m/s).
+  double pressure_wave_speed() const { return std::sqrt((lame_lambda() + 2.0 * lame_mu()) / density); }
 };
 
 }  // namespace pliant

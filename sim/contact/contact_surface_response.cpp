@@ -65,11 +65,9 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       g.query_forces.resize(g.query_vertices.size());
       if (frozen) {
         body.model->internal_forces_at_frozen_rotations(body.positions, g.query_vertices, g.query_forces);
-      } else if (rotation_tolerance > 0.0) {
+      } else {  // tolerance 0 is the exact query
         body.model->internal_forces_at_nearby_rotations(body.positions, g.query_vertices, g.query_forces,
                                                         rotation_tolerance);
-      } else {
-        body.model->internal_forces_at(body.positions, g.query_vertices, g.query_forces);
       }
       for (size_t q = 0; q < g.query_entries.size(); ++q) {
         g.forces[static_cast<size_t>(g.query_entries[q])] = g.query_forces[q];
@@ -98,8 +96,7 @@ void limit_to_contact_layer(std::span<Body* const> bodies, std::vector<Displacem
     if (v.immovable || !(v.length > 0.0)) continue;
     const Material& m = bodies[static_cast<size_t>(v.body)]->material;
     if (!(m.density > 0.0)) continue;
-    const double wave_speed = std::sqrt((m.lame_lambda() + 2.0 * m.lame_mu()) / m.density);  // m/s
-    const double cfl = wave_speed * dt / v.length;
+    const double cfl = m.pressure_wave_speed() * dt / v.length;
     if (cfl <= 1.0) continue;
     v.fraction /= cfl * cfl;
     moved = true;

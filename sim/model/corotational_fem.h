@@ -114,6 +114,9 @@ class CorotationalFem final : public DeformationModel {
 
  private:
   Mat3 first_piola(const Mat3& F, const Mat3& R) const;
+  /// Mueller & Gross's warped-stiffness stress P = R (mu (G + G^T) + (lambda tr(G - I) - 2 mu) I),
+  /// G = R^T F: the linear stress of sym(R^T F) - I rotated by R (Pa), for a rotation held fixed.
+  Mat3 warped_stiffness_stress(const Mat3& F, const Mat3& R) const;
   /// -V P Dm^-T: columns are the forces (N) on local vertices 1..3 (vertex 0 gets minus their sum).
   Mat3 element_forces(size_t t, const Mat3& F, const Mat3& R) const;
   /// Full pass at x: rotations, forces, energies, rotated gradients [and assembled K'].
@@ -232,6 +235,9 @@ class CorotationalFem final : public DeformationModel {
   std::vector<char> frozen_cached_;     ///< per tet: 1 when the cache entry is filled
   /// Records tet t's exactly extracted rotation R at deformation gradient F for nearby queries.
   void remember_rotation(size_t t, const Mat3& F, const Mat3& R);
+  /// The exact query's stress P of tet t at F: rotation extracted warm-started from rotations_ (left
+  /// as it is) and remembered for nearby queries.
+  Mat3 exact_query_stress(size_t t, const Mat3& F);
   std::vector<Mat3> nearby_rotation_;   ///< per tet: last exactly extracted rotation
   std::vector<Mat3> nearby_key_;        ///< per tet: the F it was extracted from
   std::vector<char> nearby_cached_;     ///< per tet: 1 when filled

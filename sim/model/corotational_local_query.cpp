@@ -91,14 +91,7 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
-      if (fresh) {
-        const Mat3 F = deformation_gradient(x, t);
-        Quat q = rotations_[ts];  // warm start; the stored rotation is left as it is
-        extract_rotation(F, q, kElementRotationIterations, kElementRotationTolerance);
-        const Mat3 R = q.toRotationMatrix();
-        remember_rotation(ts, F, R);
-        query_forces_[slot] = first_piola(F, R);  // P
-      }
+      if (fresh) query_forces_[slot] = exact_query_stress(ts, deformation_gradient(x, t));
       // -V P g_j per vertex-tet pair: the per-vertex query's expression, bit for bit (the held-force
       // floor test's jitter measure moved from 2.0 to 2.17 mm/s with the force-matrix form's round-off).
       const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
@@ -106,6 +99,21 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
     }
     f[k] = sum;
   }
+}
+
+Mat3 CorotationalFem::exact_query_stress(size_t t, const Mat3& F) {
+  Quat q = rotations_[t];  // warm start; the stored rotation is left as it is
+  extract_rotation(F, q, kElementRotationIterations, kElementRotationTolerance);
+  const Mat3 R = q.toRotationMatrix();
+  remember_rotation(t, F, R);
+  return first_piola(F, R);
+}
+
+Mat3 CorotationalFem::warped_stiffness_stress(const Mat3& F, const Mat3& R) const {
+  const Mat3 G = R.transpose() * F;
+  Mat3 S = mu_ * (G + G.transpose());
+  S.diagonal().array() += lambda_ * (G.trace() - 3.0) - 2.0 * mu_;
+  return R * S;
 }
 
 void CorotationalFem::remember_rotation(size_t t, const Mat3& F, const Mat3& R) {
@@ -136,21 +144,10 @@ void CorotationalFem::internal_forces_at_nearby_rotations(std::span<const Vec3> 
       const auto [slot, fresh] = local_query_slot(ts);
       if (fresh) {
         const Mat3 F = deformation_gradient(x, t);
-        if (ts < nearby_cached_.size() && nearby_cached_[ts] != 0 &&
-            (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq) {
-          // P = R (mu (G + G^T) + (lambda tr(G - I) - 2 mu) I), G = R^T F: the frozen query's stress.
-          const Mat3& R = nearby_rotation_[ts];
-          const Mat3 G = R.transpose() * F;
-          Mat3 S = mu_ * (G + G.transpose());
-          S.diagonal().array() += lambda_ * (G.trace() - 3.0) - 2.0 * mu_;
-          query_forces_[slot] = R * S;
-        } else {
-          Quat q = rotations_[ts];  // as the exact query
-          extract_rotation(F, q, kElementRotationIterations, kElementRotationTolerance);
-          const Mat3 R = q.toRotationMatrix();
-          remember_rotation(ts, F, R);
-          query_forces_[slot] = first_piola(F, R);
-        }
+        const bool nearby = ts < nearby_cached_.size() && nearby_cached_[ts] != 0 &&
+                            (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
+        // Within the tolerance: the frozen query's stress with the remembered rotation.
+        query_forces_[slot] = nearby ? warped_stiffness_stress(F, nearby_rotation_[ts]) : exact_query_stress(ts, F);
       }
       const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
       sum -= volume_[ts] * (query_forces_[slot] * g);
@@ -190,12 +187,9 @@ void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> 
       // Mueller & Gross's warped stiffness f = -R K (R^T x - X): the linear stress of the symmetric
       // strain sym(R^T F) - I, rotated by R. (2 mu (F - R) would also resist a rotation away from R.)
       if (fresh) {
-        const Mat3 R = frozen_rotation(ts);
-        const Mat3 G = R.transpose() * deformation_gradient(x, t);  // R^T F
-        // P = R (mu (G + G^T) + (lambda tr(G - I) - 2 mu) I); forces -V P Dm^-T as element_forces.
-        Mat3 S = mu_ * (G + G.transpose());
-        S.diagonal().array() += lambda_ * (G.trace() - 3.0) - 2.0 * mu_;
-        query_forces_[slot] = -volume_[ts] * (R * S) * rest_shape_inverse_[ts].transpose();
+        // Forces -V P Dm^-T as element_forces.
+        const Mat3 P = warped_stiffness_stress(deformation_gradient(x, t), frozen_rotation(ts));
+        query_forces_[slot] = -volume_[ts] * P * rest_shape_inverse_[ts].transpose();
       }
       sum += corner_force(query_forces_[slot], local_index(mesh_->tets()[ts], v));
     }

@@ -78,7 +78,7 @@ class DeformationModel {
   /// internal_forces_at for the contact stage's binary search, allowed to reuse an element rotation
   /// extracted earlier (in any query or step) where the element's deformation gradient has since
   /// moved by at most `rotation_tolerance` (Frobenius norm of the change in F, dimensionless).
-  /// The default is the exact internal_forces_at.
+  /// Tolerance 0 must be the exact internal_forces_at, which is also the default.
   virtual void internal_forces_at_nearby_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                                    std::span<Vec3> f, double rotation_tolerance) {
     (void)rotation_tolerance;

@@ -105,12 +105,12 @@ int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexI
     if (b->is_kinematic()) return b->instrument || b->moved_this_step;
     return !b->sleep.resting;
   };
-  std::vector<int> woken;
+  int woken = 0;
   auto wake = [&](int index) {
     Body* b = bodies[static_cast<size_t>(index)];
     if (b == nullptr || !b->is_sleeping()) return;
     wake_body(*b);
-    woken.push_back(index);
+    ++woken;
   };
   for (const VertexInTet& c : colliding) {
     const Body* a = bodies[static_cast<size_t>(c.body)];
@@ -128,23 +128,20 @@ int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexI
   // neighbours only once it leaves its ball in turn (before session 5 waking spread at once to
   // every sleeper whose box overlapped a woken one, which in a pile woke the whole pile whenever
   // any fruit moved: docs/experiments.md "Session 5").
-  std::vector<int> sleepers;
-  for (size_t i = 0; i < bodies.size(); ++i) {
-    if (bodies[i] != nullptr && bodies[i]->is_sleeping()) sleepers.push_back(static_cast<int>(i));
-  }
-  if (sleepers.empty()) return static_cast<int>(woken.size());
+  const auto asleep = [](const Body* b) { return b != nullptr && b->is_sleeping(); };
+  if (std::none_of(bodies.begin(), bodies.end(), asleep)) return woken;
   for (size_t i = 0; i < bodies.size(); ++i) {
     const Body* mover = bodies[i];
     if (mover == nullptr || mover->is_kinematic() || !moves(static_cast<int>(i))) continue;
     const Box box = bounds(*mover);
-    for (int s : sleepers) {
-      const Body* b = bodies[static_cast<size_t>(s)];
-      if (!b->is_sleeping()) continue;
+    for (size_t s = 0; s < bodies.size(); ++s) {
+      const Body* b = bodies[s];
+      if (!asleep(b)) continue;
       const Box sleeper{b->sleep.box_lo, b->sleep.box_hi};
-      if (box.overlaps(sleeper, settings.wake_margin)) wake(s);
+      if (box.overlaps(sleeper, settings.wake_margin)) wake(static_cast<int>(s));
     }
   }
-  return static_cast<int>(woken.size());
+  return woken;
 }
 
 int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& settings,
