@@ -310,19 +310,33 @@ void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
   std::fill(forces_.begin(), forces_.end(), Vec3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
-  for (size_t t = 0; t < nt; ++t) {
-    const Mat3 F = deformation_gradient(x, static_cast<int>(t));
-    extract_rotation(F, rotations_[t], kElementRotationIterations, kElementRotationTolerance);
-    const Mat3 R = rotations_[t].toRotationMatrix();
-    // The rotated shape gradients R Dm^-T are left to their readers (rotated_gradient(t)); the
-    // trace and F - R are shared by the energy and P (first_piola's expressions, bit for bit).
-    const double trace = R.cwiseProduct(F).sum() - 3.0;
-    const Mat3 FmR = F - R;
-    const double e = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
-    tet_energy_[t] = e;
-    energy += e;
-    const Mat3 P = 2.0 * mu_ * FmR + lambda_ * trace * R;
-    scatter_tet(mesh_->tets()[t], -volume_[t] * P * rest_shape_inverse_[t].transpose(), forces_);
+  // Rotations four tets at a time (extract_rotations_batch: the scalar's result bit for bit, the
+  // latency-bound iterations of four tets overlapped), the rest tet by tet in order.
+  constexpr size_t L = kRotationBatchLanes;
+  Mat3 F[L];
+  for (size_t t0 = 0; t0 < nt; t0 += L) {
+    const size_t lanes = std::min(L, nt - t0);
+    for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
+    if (lanes == L) {
+      extract_rotations_batch(F, &rotations_[t0], kElementRotationIterations, kElementRotationTolerance);
+    } else {
+      for (size_t l = 0; l < lanes; ++l) {
+        extract_rotation(F[l], rotations_[t0 + l], kElementRotationIterations, kElementRotationTolerance);
+      }
+    }
+    for (size_t l = 0; l < lanes; ++l) {
+      const size_t t = t0 + l;
+      const Mat3 R = rotations_[t].toRotationMatrix();
+      // The rotated shape gradients R Dm^-T are left to their readers (rotated_gradient(t)); the
+      // trace and F - R are shared by the energy and P (first_piola's expressions, bit for bit).
+      const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
+      const Mat3 FmR = F[l] - R;
+      const double e = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
+      tet_energy_[t] = e;
+      energy += e;
+      const Mat3 P = 2.0 * mu_ * FmR + lambda_ * trace * R;
+      scatter_tet(mesh_->tets()[t], -volume_[t] * P * rest_shape_inverse_[t].transpose(), forces_);
+    }
   }
   gradients_current_ = false;
   if (assemble) assemble_stiffness();
