@@ -310,8 +310,8 @@ void CorotationalFem::linearise(std::span<const Vec3> x, bool assemble) {
   std::fill(forces_.begin(), forces_.end(), Vec3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
-  // Rotations four tets at a time (extract_rotations_batch: the scalar's result bit for bit, the
-  // latency-bound iterations of four tets overlapped), the rest tet by tet in order.
+  // Rotations kRotationBatchLanes tets at a time (extract_rotations_batch: the scalar's result bit
+  // for bit, the latency-bound iterations of the lanes overlapped), the rest tet by tet in order.
   constexpr size_t L = kRotationBatchLanes;
   Mat3 F[L];
   for (size_t t0 = 0; t0 < nt; t0 += L) {
