@@ -24,6 +24,7 @@
 
 #include <Eigen/SVD>
 #include <cmath>
+#include <cstring>
 
 #include "sim/math_types.h"
 
@@ -148,16 +149,45 @@ inline void extract_rotations_batch(const Mat3* F, Quat* q, int max_iterations, 
   using rotation_batch_detail::Lanes;
   using rotation_batch_detail::Mask;
   constexpr int L = kRotationBatchLanes;
-  Lanes G[3][3], qx, qy, qz, qw;  // G[i][j] = G(i, j) per lane; q's coefficients
-  for (int l = 0; l < L; ++l) {
-    const Mat3 start = rotation_iteration_start(F[l], q[l]);
+  // Gathered through memcpy (element inserts into vector arrays trip GCC's maybe-uninitialized).
+  const auto gather = [](auto value_of_lane) {
+    double values[L];
+    for (int l = 0; l < L; ++l) values[l] = value_of_lane(l);
+    Lanes v;
+    std::memcpy(&v, values, sizeof(v));
+    return v;
+  };
+  Lanes G[3][3], Fl[3][3];  // G(i, j) and F(i, j) per lane
+  Lanes qx = gather([&](int l) { return q[l].x(); }), qy = gather([&](int l) { return q[l].y(); }),
+        qz = gather([&](int l) { return q[l].z(); }), qw = gather([&](int l) { return q[l].w(); });
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) Fl[i][j] = gather([&](int l) { return F[l](i, j); });
+  }
+  // rotation_iteration_start in the lanes: R = q.toRotationMatrix() (Eigen's expressions), G = R^T F.
+  {
+    const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
+    const Lanes twx = tx * qw, twy = ty * qw, twz = tz * qw;
+    const Lanes txx = tx * qx, txy = ty * qx, txz = tz * qx;
+    const Lanes tyy = ty * qy, tyz = tz * qy, tzz = tz * qz;
+    const Lanes R[3][3] = {{1.0 - (tyy + tzz), txy - twz, txz + twy},
+                           {txy + twz, 1.0 - (txx + tzz), tyz - twx},
+                           {txz - twy, tyz + twx, 1.0 - (txx + tyy)}};
     for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) G[i][j][l] = start(i, j);
+      for (int j = 0; j < 3; ++j) G[i][j] = (R[0][i] * Fl[0][j] + R[1][i] * Fl[1][j]) + R[2][i] * Fl[2][j];
     }
-    qx[l] = q[l].x();
-    qy[l] = q[l].y();
-    qz[l] = q[l].z();
-    qw[l] = q[l].w();
+  }
+  for (int l = 0; l < L; ++l) {
+    // A warm start facing away (the SVD start) is rare: that lane runs the scalar start again.
+    if (G[0][0][l] + (G[1][1][l] + G[2][2][l]) <= 0.0 && F[l].allFinite()) {
+      const Mat3 start = rotation_iteration_start(F[l], q[l]);
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) G[i][j][l] = start(i, j);
+      }
+      qx[l] = q[l].x();
+      qy[l] = q[l].y();
+      qz[l] = q[l].z();
+      qw[l] = q[l].w();
+    }
   }
   const double tolerance_sq = tolerance * tolerance;
   const Lanes zero = {};
