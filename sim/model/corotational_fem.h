@@ -26,6 +26,10 @@
 //   re-evaluates only the tets around those vertices (and swaps their blocks in the assembled K'),
 //   and any other query a full pass. Every value
 //   returned is exact for the positions passed in (bitwise comparison); only the warm starts differ.
+// - Energy query (session 6): elastic_energy changes no cached state (a query inside or between
+//   steps leaves the run bit for bit). A full pass it runs is kept aside (pass memo, keyed by the
+//   positions and the version of the warm starts) and adopted by the next linearisation at those
+//   positions, so World's report query plus the next advance still cost one pass.
 // - K' reuse (session 5): advance keeps a tet's K' blocks from the rotation they were built from
 //   while its current rotation is within stiffness_rotation_tolerance (default 1e-3 rad) of it, and
 //   sums again only the vertex rows around tets that moved further. Forces and energies stay exact;
@@ -78,6 +82,8 @@ class CorotationalFem final : public DeformationModel {
   /// cached). Design note in corotational_local_query.cpp.
   void internal_forces_at_nearby_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                            std::span<Vec3> f, double rotation_tolerance) override;
+  /// Elastic energy (J) at x, a pure query: the cached linearisation state is not changed (a full
+  /// pass it needs is kept aside for the next linearisation at x to adopt, bit for bit).
   double elastic_energy(std::span<const Vec3> x) override;
   IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
@@ -119,8 +125,15 @@ class CorotationalFem final : public DeformationModel {
   Mat3 warped_stiffness_stress(const Mat3& F, const Mat3& R) const;
   /// -V P Dm^-T: columns are the forces (N) on local vertices 1..3 (vertex 0 gets minus their sum).
   Mat3 element_forces(size_t t, const Mat3& F, const Mat3& R) const;
-  /// Full pass at x: rotations, forces, energies, rotated gradients [and assembled K'].
+  /// One full evaluation at x into the given arrays: rotations extracted from `warm_starts` (may be
+  /// `rotations` itself), forces (N), per-tet energies (J); returns the energy (J).
+  double evaluate_pass(std::span<const Vec3> x, const std::vector<Quat>& warm_starts, std::vector<Quat>& rotations,
+                       std::vector<Vec3>& forces, std::vector<double>& tet_energy) const;
+  /// Full pass at x: rotations, forces, energies, rotated gradients [and assembled K'] (adopts the
+  /// pass memo when it belongs to x and the current warm starts).
   void linearise(std::span<const Vec3> x, bool assemble);
+  /// Energy at x differing from state_x_ in changed_vertices_ only, without changing the state.
+  double energy_with_changed_vertices(std::span<const Vec3> x);
   /// Makes the cached state belong to x: nothing if x is the cached positions, the tets around the
   /// changed vertices if few changed, else a full pass.
   void refresh_state(std::span<const Vec3> x);
@@ -184,8 +197,19 @@ class CorotationalFem final : public DeformationModel {
   bool state_valid_ = false;
   bool state_deferred_ = false;          ///< advance left x_{n+1} in state_x_, not yet evaluated
   std::vector<int> changed_vertices_;    ///< scratch of refresh_state (capacity reserved)
-  std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state
+  std::vector<unsigned> tet_stamp_;      ///< visit marks of refresh_state and the energy query
   unsigned stamp_ = 0;
+  unsigned long rotations_version_ = 0;  ///< counts writes of rotations_ (the pass memo's key)
+  // Pass memo (elastic_energy): a full pass at pass_memo_x_ from the warm starts of version
+  // pass_memo_version_, for linearise to adopt.
+  bool pass_memo_valid_ = false;
+  unsigned long pass_memo_version_ = 0;
+  std::vector<Vec3> pass_memo_x_;
+  std::vector<Quat> pass_memo_rotations_;
+  std::vector<Vec3> pass_memo_forces_;
+  std::vector<double> pass_memo_tet_energy_;
+  double pass_memo_energy_ = 0.0;
+  std::vector<double> query_tet_energy_;  ///< scratch of energy_with_changed_vertices (J)
 
   // Assembled K' (3x3 blocks, CSR by vertex rows, upper triangle: K_ii first, then j > i).
   std::vector<int> block_row_offsets_, block_cols_;

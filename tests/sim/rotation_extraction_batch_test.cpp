@@ -1,0 +1,125 @@
+// The batched rotation extraction (kRotationBatchLanes tets per call) against the scalar extract_rotation, the
+// reference it must equal bit for bit: every lane repeats the scalar's operations in the scalar's
+// order, and a lane that stopped must not move while the others go on. Inputs cover what the FEM
+// meets: small strains of rotated tets with nearby warm starts (one or two Newton steps), large
+// stretches and shears, inverted and near-degenerate elements (1e-12 slivers), warm starts facing
+// away (the SVD start), a zero F, and iteration caps 1..3 that stop lanes at the cap. In a
+// PLIANT_NATIVE build with FMA the two codes fuse multiply-adds differently: there they must agree
+// to 1e-12 (and the iteration count to one).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "sim/model/rotation_extraction.h"
+
+namespace pliant {
+namespace {
+
+bool same_bits(const Quat& a, const Quat& b) { return std::memcmp(a.coeffs().data(), b.coeffs().data(), 4 * sizeof(double)) == 0; }
+
+Quat random_rotation(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Quat q(n(rng), n(rng), n(rng), n(rng));
+  q.normalize();
+  return q;
+}
+
+Mat3 random_matrix(std::mt19937_64& rng, double scale) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Mat3 m;
+  for (int i = 0; i < 9; ++i) m.data()[i] = scale * u(rng);
+  return m;
+}
+
+/// One deformation gradient and warm start of kind `kind` (0..6).
+void make_case(std::mt19937_64& rng, int kind, Mat3& F, Quat& warm) {
+  const Quat R = random_rotation(rng);
+  const Mat3 Rm = R.toRotationMatrix();
+  std::uniform_real_distribution<double> angle(-1.0, 1.0);
+  const Quat small(Eigen::AngleAxisd(1e-3 * angle(rng), Vec3::UnitX()) * Eigen::AngleAxisd(1e-3 * angle(rng), Vec3::UnitY()));
+  switch (kind) {
+    case 0:  // small strain, warm start one probe step away
+      F = Rm * (Mat3::Identity() + random_matrix(rng, 1e-3));
+      warm = R * small;
+      break;
+    case 1:  // large stretch and shear, warm start far away
+      F = Rm * (Mat3::Identity() + random_matrix(rng, 0.6));
+      warm = random_rotation(rng);
+      break;
+    case 2: {  // inverted: one axis flipped
+      Mat3 S = Mat3::Identity() + random_matrix(rng, 0.2);
+      S.col(2) = -S.col(2);
+      F = Rm * S;
+      warm = R * small;
+      break;
+    }
+    case 3: {  // sliver: a singular value of 1e-12
+      Mat3 S = Mat3::Identity() + random_matrix(rng, 0.1);
+      S.col(1) = 1e-12 * S.col(1);
+      F = Rm * S;
+      warm = R;
+      break;
+    }
+    case 4:  // warm start facing away: the SVD start
+      F = Rm * (Mat3::Identity() + random_matrix(rng, 1e-2));
+      warm = R * Quat(Eigen::AngleAxisd(3.1, Vec3::UnitZ()));
+      break;
+    case 5:  // zero F
+      F = Mat3::Zero();
+      warm = R;
+      break;
+    default:  // a pure rotation, identity warm start
+      F = Rm;
+      warm = Quat::Identity();
+      break;
+  }
+}
+
+TEST(RotationExtractionBatch, EveryLaneEqualsTheScalarExtractionBitForBit) {
+  std::mt19937_64 rng(20261121);
+  std::uniform_int_distribution<int> kinds(0, 6);
+  constexpr int L = kRotationBatchLanes;
+  int compared = 0, iterations_seen = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    Mat3 F[L];
+    Quat batch[L], scalar[L];
+    int iterations[L], scalar_iterations[L];
+    // Mixed kinds within a batch (lanes stop at different iterations) and uniform batches.
+    const int uniform = trial % 3 == 0 ? kinds(rng) : -1;
+    int kind_of[L];
+    for (int l = 0; l < L; ++l) {
+      kind_of[l] = uniform >= 0 ? uniform : kinds(rng);
+      make_case(rng, kind_of[l], F[l], batch[l]);
+      scalar[l] = batch[l];
+    }
+    const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
+    const double tolerance = trial % 7 == 0 ? 1e-13 : kElementRotationTolerance;
+    extract_rotations_batch(F, batch, cap, tolerance, iterations);
+    for (int l = 0; l < L; ++l) {
+      scalar_iterations[l] = extract_rotation(F[l], scalar[l], cap, tolerance);
+#ifdef __FMA__
+      // -march=native with FMA (PLIANT_NATIVE): the compiler fuses multiply-adds differently in
+      // the two codes (and Eigen's kernels fuse explicitly), so only the last bits may differ.
+      ASSERT_LT((batch[l].coeffs() - scalar[l].coeffs()).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+      ASSERT_LE(std::abs(iterations[l] - scalar_iterations[l]), 1) << "trial " << trial;
+      iterations_seen += iterations[l];
+      ++compared;
+      continue;
+#endif
+      ASSERT_TRUE(same_bits(batch[l], scalar[l]))
+          << "trial " << trial << " lane " << l << " kind " << kind_of[l] << " cap " << cap << " it " << iterations[l] << "/" << scalar_iterations[l] << ": " << batch[l].coeffs().transpose() << " vs "
+          << scalar[l].coeffs().transpose();
+      ASSERT_EQ(iterations[l], scalar_iterations[l]) << "trial " << trial << " lane " << l;
+      iterations_seen += iterations[l];
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 20000 * L);
+  EXPECT_GT(iterations_seen, compared);  // more than one iteration per lane on average: the loop ran
+}
+
+}  // namespace
+}  // namespace pliant
