@@ -78,6 +78,11 @@ class CorotationalFem final : public DeformationModel {
   /// cached). Design note in corotational_local_query.cpp.
   void internal_forces_at_nearby_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                            std::span<Vec3> f, double rotation_tolerance) override;
+  /// K' d from the assembled blocks of the last advance (rotations of x_n, reused within
+  /// stiffness_rotation_tolerance); false unless the product is assembled and the state is the one
+  /// advance left (corotational_local_query.cpp).
+  bool stiffness_product_at(std::span<const int> moved, std::span<const Vec3> d, std::span<const int> rows,
+                            std::span<Vec3> y) override;
   double elastic_energy(std::span<const Vec3> x) override;
   IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
@@ -241,6 +246,9 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> nearby_rotation_;   ///< per tet: last exactly extracted rotation
   std::vector<Mat3> nearby_key_;        ///< per tet: the F it was extracted from
   std::vector<char> nearby_cached_;     ///< per tet: 1 when filled
+  // stiffness_product_at scratch (session 6): per vertex its entry in `moved` or -1, and K' d.
+  std::vector<int> product_entry_;
+  std::vector<Vec3> product_sum_;
 };
 
 }  // namespace pliant
