@@ -80,9 +80,9 @@ class CorotationalFem final : public DeformationModel {
                                            std::span<Vec3> f, double rotation_tolerance) override;
   /// K' d from the assembled blocks of the last advance (rotations of x_n, reused within
   /// stiffness_rotation_tolerance); false unless the product is assembled and the state is the one
-  /// advance left (corotational_local_query.cpp).
+  /// advance left, or if a move exceeds the strain tolerance (corotational_local_query.cpp).
   bool stiffness_product_at(std::span<const int> moved, std::span<const Vec3> d, std::span<const int> rows,
-                            std::span<Vec3> y) override;
+                            std::span<Vec3> y, double strain_tolerance) override;
   double elastic_energy(std::span<const Vec3> x) override;
   IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
@@ -249,6 +249,7 @@ class CorotationalFem final : public DeformationModel {
   // stiffness_product_at scratch (session 6): per vertex its entry in `moved` or -1, and K' d.
   std::vector<int> product_entry_;
   std::vector<Vec3> product_sum_;
+  std::vector<double> vertex_gradient_bound_;  ///< per vertex: largest |grad N| over its tets (1/m)
 };
 
 }  // namespace pliant
