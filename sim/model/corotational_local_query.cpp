@@ -28,6 +28,7 @@
 //   the moved vertices give every needed block: K'_{jc} d_c from row j, K'_{cj} d_j = B_{jc}^T d_j
 //   for c > j. Rows that did not move themselves get only the transposed blocks, hence the
 //   contract: every asked row is in `moved` (with d = 0 if it stays).
+#include <algorithm>
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
@@ -203,7 +204,7 @@ void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> 
 }
 
 bool CorotationalFem::stiffness_product_at(std::span<const int> moved, std::span<const Vec3> d,
-                                           std::span<const int> rows, std::span<Vec3> y) {
+                                           std::span<const int> rows, std::span<Vec3> y, double strain_tolerance) {
   // The blocks are the last advance's K' only while its state is deferred (nothing re-linearised
   // since) and the product is assembled.
   if (product_ != StiffnessProduct::assembled || !state_deferred_ || blocks_.empty()) return false;
@@ -211,6 +212,19 @@ bool CorotationalFem::stiffness_product_at(std::span<const int> moved, std::span
   if (product_entry_.size() != n) {
     product_entry_.assign(n, -1);
     product_sum_.assign(n, Vec3::Zero());
+    // A move d of vertex j changes F of each of its tets by d g_j^T, |d g_j^T|_F = |d| |g_j|.
+    vertex_gradient_bound_.assign(n, 0.0);
+    const auto nt = static_cast<size_t>(mesh_->tet_count());
+    for (size_t t = 0; t < nt; ++t) {
+      for (int j = 0; j < 4; ++j) {
+        auto& bound = vertex_gradient_bound_[static_cast<size_t>(mesh_->tets()[t][static_cast<size_t>(j)])];
+        bound = std::max(bound, shape_gradient(rest_shape_inverse_[t], j).norm());
+      }
+    }
+  }
+  // Each moved vertex's own share of its tets' |dF| (a tet's is at most the sum over its corners).
+  for (size_t k = 0; k < moved.size(); ++k) {
+    if (d[k].norm() * vertex_gradient_bound_[static_cast<size_t>(moved[k])] > strain_tolerance) return false;
   }
   for (size_t k = 0; k < moved.size(); ++k) product_entry_[static_cast<size_t>(moved[k])] = static_cast<int>(k);
   for (size_t k = 0; k < moved.size(); ++k) {
