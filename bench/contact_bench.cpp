@@ -41,8 +41,17 @@ class RespondTimer final : public StepProfiler {
 /// surface: the library defaults (held forces at full strength, exact queries);
 /// surface_without_held_forces: the paper's response (held off), defaults otherwise; penalty: the
 /// penalty response; surface_frozen_search: held off, the frozen-rotation search on
-/// (ContactSettings::frozen_rotation_search; appended last so the others keep their ids).
-enum class Variant { surface, surface_without_held_forces, penalty, surface_frozen_search };
+/// (ContactSettings::frozen_rotation_search; appended last so the others keep their ids);
+/// surface_linearised_search (session 6): held off, ContactSettings::linearised_search on;
+/// surface_query_search: held off, linearised_search off (the session-5 search).
+enum class Variant {
+  surface,
+  surface_without_held_forces,
+  penalty,
+  surface_frozen_search,
+  surface_linearised_search,
+  surface_query_search
+};
 
 void run_respond_benchmark(benchmark::State& state, const char* scene_file) {
   const auto variant = static_cast<Variant>(state.range(0));
@@ -52,6 +61,8 @@ void run_respond_benchmark(benchmark::State& state, const char* scene_file) {
       variant == Variant::penalty ? ContactMethod::penalty : ContactMethod::contact_surface;
   if (variant != Variant::surface) scene.world.contact.held_force_fraction = 0.0;
   if (variant == Variant::surface_frozen_search) scene.world.contact.frozen_rotation_search = true;
+  if (variant == Variant::surface_linearised_search) scene.world.contact.linearised_search = true;
+  if (variant == Variant::surface_query_search) scene.world.contact.linearised_search = false;
   scene.world.compute_energy = false;
   scene.world.sleep.enabled = false;  // keep every body in contact awake: time the response itself
   SceneRunner runner(scene);
@@ -92,6 +103,8 @@ BENCHMARK(BM_ThreeCubesRespond)
     ->Arg(static_cast<int>(Variant::surface_without_held_forces))
     ->Arg(static_cast<int>(Variant::penalty))
     ->Arg(static_cast<int>(Variant::surface_frozen_search))
+    ->Arg(static_cast<int>(Variant::surface_linearised_search))
+    ->Arg(static_cast<int>(Variant::surface_query_search))
     ->ArgNames({"variant"})
     ->UseManualTime()
     ->Iterations(300)

@@ -35,6 +35,18 @@ struct ContactSettings {
   /// internal_forces_at_nearby_rotations, docs/contact-surface.md "Speed (session 5)"). 0: every
   /// search query extracts every rotation (exact).
   double search_rotation_tolerance = 1e-3;
+  /// Beyond the paper (session 6, docs/contact-surface.md "Speed (session 6)"): the binary search's
+  /// iterations after the first evaluate a body's forces as f(x1) - K' (x - x1), x1 the first
+  /// evaluation's positions and K' the stiffness matrix of the body's last implicit step
+  /// (DeformationModel::stiffness_product_at: rotations frozen, no per-element work), for a body
+  /// whose searching vertices have |s| <= h / 2^(n+2) (a quarter of frozen_rotation_search's
+  /// gate). The first and the final evaluation stay queries. false: every search iteration asks
+  /// the force query (the session-5 search, bit for bit).
+  bool linearised_search = true;
+  /// The linearised search's second gate: a body's later iterations ask the query instead where a
+  /// searching vertex's move since the first evaluation changes one of its elements' deformation
+  /// gradient by more than this (|d| |grad N|, dimensionless; a sliver's rotation turns fast).
+  double linearised_search_strain = 1e-2;
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0

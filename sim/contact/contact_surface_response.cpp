@@ -40,15 +40,57 @@ void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>
 // evaluation passes n = 0 (always exact).
 // With `rotation_tolerance` > 0 the exact pass reuses rotations extracted earlier where the
 // element's F moved by at most that much (internal_forces_at_nearby_rotations; search only).
+// Linearised search (session 6, ContactSettings::linearised_search): `linearisation` = start
+// records, after the queries, each linearised group's positions and search forces (x1, f(x1));
+// = use evaluates such a group as f(x1) - K' (x - x1) (DeformationModel::stiffness_product_at)
+// instead of asking the query; a model without K' falls back to the query.
+enum class Linearisation { none, start, use };
+
+// The linearised search's gate: every searching vertex of the group has |s| <= h / 2^(n+2). Its
+// moves after the first evaluation (at most 7/16 |s|) then stay below h / 2^(n+3), a quarter of
+// the frozen search's gate (h / 2^(n+1), where the frozen-rotation error, ~0.4 |d| / h of the force
+// change, stays below the search's resolution): the margin covers K's rotation lag (<= 1e-3 rad
+// plus the step's rotation since x_n). Measured (docs/contact-surface.md "Speed (session 6)"): at
+// h / 2^(n+1) the matrix's dt 20 ms case ended 1.3% deeper (15.4 -> 15.6 mm), at h / 2^(n+2) not;
+// three cubes respond ~5% slower (a few groups ask the query).
+void gate_linearisation(DeformationRegion& region, int iterations, bool enabled) {
+  const double resolution = std::ldexp(1.0, -(iterations + 2));
+  const auto& vertices = region.vertices();
+  for (auto& g : region.groups()) {
+    g.linearised = enabled && g.search_count > 0;
+    for (size_t i = 0; i < g.search_count && g.linearised; ++i) {
+      const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+      const double limit = resolution * v.length;
+      if (v.searching && !(v.displacement.squaredNorm() <= limit * limit)) g.linearised = false;
+    }
+  }
+}
+
+// f(x1) - K' (x - x1) over the group's search entries; false if the model has no K'.
+bool linearised_forces(const Body& body, DeformationRegion::BodyGroup& g, double strain_tolerance) {
+  const size_t count = g.search_count;
+  g.moves.resize(count);
+  g.stiffness_moves.resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    g.moves[i] = body.positions[static_cast<size_t>(g.vertices[i])] - g.start_positions[i];
+  }
+  const std::span<const int> rows(g.vertices.data(), count);
+  if (!body.model->stiffness_product_at(rows, g.moves, rows, g.stiffness_moves, strain_tolerance)) return false;
+  for (size_t i = 0; i < count; ++i) g.forces[i] = g.start_forces[i] - g.stiffness_moves[i];
+  return true;
+}
+
 void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region, bool search_only,
-                        int frozen_iterations, double rotation_tolerance = 0.0) {
+                        int frozen_iterations, double rotation_tolerance = 0.0,
+                        Linearisation linearisation = Linearisation::none, double strain_tolerance = 0.0) {
   auto& vertices = region.vertices();
   const double resolution = std::ldexp(1.0, -(frozen_iterations + 1));
   for (auto& g : region.groups()) {
     const size_t count = search_only ? g.search_count : g.vertices.size();
     if (count == 0) continue;
     Body& body = *bodies[static_cast<size_t>(g.body)];
-    for (int pass = 0; pass < 2; ++pass) {  // frozen, then exact
+    const bool linear = linearisation == Linearisation::use && g.linearised && linearised_forces(body, g, strain_tolerance);
+    for (int pass = 0; pass < 2 && !linear; ++pass) {  // frozen, then exact
       const bool frozen = pass == 0;
       if (frozen && frozen_iterations <= 0) continue;
       g.query_vertices.clear();
@@ -71,6 +113,13 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       }
       for (size_t q = 0; q < g.query_entries.size(); ++q) {
         g.forces[static_cast<size_t>(g.query_entries[q])] = g.query_forces[q];
+      }
+    }
+    if (linearisation == Linearisation::start && g.linearised) {
+      g.start_positions.resize(g.search_count);
+      g.start_forces.assign(g.forces.begin(), g.forces.begin() + static_cast<std::ptrdiff_t>(g.search_count));
+      for (size_t i = 0; i < g.search_count; ++i) {
+        g.start_positions[i] = body.positions[static_cast<size_t>(g.vertices[i])];
       }
     }
     for (size_t i = 0; i < count; ++i) {
@@ -342,10 +391,15 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Without searching vertices (everything in contact faces an immovable body) no pressure is
   // read: the fractions below still step as before (a zero displacement only ever goes further).
   const bool search = region_.has_searching_vertices();
+  // The linearised search replaces the later iterations' queries (not with the frozen search).
+  const bool linearised = search && settings.linearised_search && !settings.frozen_rotation_search;
+  gate_linearisation(region_, iterations, linearised);
   for (int k = 1; k <= iterations; ++k) {
     if (search) {
+      const Linearisation linearisation =
+          !linearised ? Linearisation::none : (k == 1 ? Linearisation::start : Linearisation::use);
       evaluate_pressures(bodies, region_, true, settings.frozen_rotation_search ? iterations : 0,
-                         settings.search_rotation_tolerance);
+                         settings.search_rotation_tolerance, linearisation, settings.linearised_search_strain);
     }
     const double step = std::ldexp(1.0, -(k + 1));  // 1 / 2^(k+1)
     for (size_t i = 0; i < vertices.size(); ++i) {

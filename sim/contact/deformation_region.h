@@ -90,6 +90,10 @@ class DeformationRegion {
     // Scratch of one local query over a subset of the entries (ids, entry index, forces).
     std::vector<int> query_vertices, query_entries;
     std::vector<Vec3> query_forces;
+    // Linearised search (session 6), over the leading search_count entries: where the first search
+    // evaluation found them (m) and their forces there (N); the moves since (m) and K' times them (N).
+    bool linearised = false;  ///< this step's later search iterations use f(x1) - K' (x - x1)
+    std::vector<Vec3> start_positions, start_forces, moves, stiffness_moves;
   };
   std::span<BodyGroup> groups() { return {groups_.data(), group_count_}; }
   /// True if some vertex searches (else the binary search has nothing to do: every movable vertex

@@ -82,6 +82,11 @@ class CorotationalFem final : public DeformationModel {
   /// cached). Design note in corotational_local_query.cpp.
   void internal_forces_at_nearby_rotations(std::span<const Vec3> x, std::span<const int> vertices,
                                            std::span<Vec3> f, double rotation_tolerance) override;
+  /// K' d from the assembled blocks of the last advance (rotations of x_n, reused within
+  /// stiffness_rotation_tolerance); false unless the product is assembled and the state is the one
+  /// advance left, or if a move exceeds the strain tolerance (corotational_local_query.cpp).
+  bool stiffness_product_at(std::span<const int> moved, std::span<const Vec3> d, std::span<const int> rows,
+                            std::span<Vec3> y, double strain_tolerance) override;
   /// Elastic energy (J) at x, a pure query: the cached linearisation state is not changed (a full
   /// pass it needs is kept aside for the next linearisation at x to adopt, bit for bit).
   double elastic_energy(std::span<const Vec3> x) override;
@@ -265,6 +270,10 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> nearby_rotation_;   ///< per tet: last exactly extracted rotation
   std::vector<Mat3> nearby_key_;        ///< per tet: the F it was extracted from
   std::vector<char> nearby_cached_;     ///< per tet: 1 when filled
+  // stiffness_product_at scratch (session 6): per vertex its entry in `moved` or -1, and K' d.
+  std::vector<int> product_entry_;
+  std::vector<Vec3> product_sum_;
+  std::vector<double> vertex_gradient_bound_;  ///< per vertex: largest |grad N| over its tets (1/m)
 };
 
 }  // namespace pliant

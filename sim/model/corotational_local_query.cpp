@@ -23,6 +23,12 @@
 //   order in the rotation error times the stress and second order otherwise (the (F - R) form
 //   would resist the rotation error itself with 2 mu). The rotation error is about |dF| / 2 for
 //   near-rigid tets; a sliver's F changes fast under small vertex moves, so it is re-extracted.
+// - K' products (session 6): with rotations frozen the force is linear in x, so the search's later
+//   iterations need only f(x1) - K' (x - x1) at the asked rows. The assembled upper-triangle rows of
+//   the moved vertices give every needed block: K'_{jc} d_c from row j, K'_{cj} d_j = B_{jc}^T d_j
+//   for c > j. Rows that did not move themselves get only the transposed blocks, hence the
+//   contract: every asked row is in `moved` (with d = 0 if it stays).
+#include <algorithm>
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
@@ -195,6 +201,54 @@ void CorotationalFem::internal_forces_at_frozen_rotations(std::span<const Vec3> 
     }
     f[k] = sum;
   }
+}
+
+bool CorotationalFem::stiffness_product_at(std::span<const int> moved, std::span<const Vec3> d,
+                                           std::span<const int> rows, std::span<Vec3> y, double strain_tolerance) {
+  // The blocks are the last advance's K' only while its state is deferred (nothing re-linearised
+  // since) and the product is assembled.
+  if (product_ != StiffnessProduct::assembled || !state_deferred_ || blocks_.empty()) return false;
+  const auto n = static_cast<size_t>(mesh_->vertex_count());
+  if (product_entry_.size() != n) {
+    product_entry_.assign(n, -1);
+    product_sum_.assign(n, Vec3::Zero());
+    // A move d of vertex j changes F of each of its tets by d g_j^T, |d g_j^T|_F = |d| |g_j|.
+    vertex_gradient_bound_.assign(n, 0.0);
+    const auto nt = static_cast<size_t>(mesh_->tet_count());
+    for (size_t t = 0; t < nt; ++t) {
+      for (int j = 0; j < 4; ++j) {
+        auto& bound = vertex_gradient_bound_[static_cast<size_t>(mesh_->tets()[t][static_cast<size_t>(j)])];
+        bound = std::max(bound, shape_gradient(rest_shape_inverse_[t], j).norm());
+      }
+    }
+  }
+  // Each moved vertex's own share of its tets' |dF| (a tet's is at most the sum over its corners).
+  for (size_t k = 0; k < moved.size(); ++k) {
+    if (d[k].norm() * vertex_gradient_bound_[static_cast<size_t>(moved[k])] > strain_tolerance) return false;
+  }
+  for (size_t k = 0; k < moved.size(); ++k) product_entry_[static_cast<size_t>(moved[k])] = static_cast<int>(k);
+  for (size_t k = 0; k < moved.size(); ++k) {
+    const auto j = static_cast<size_t>(moved[k]);
+    const Vec3& dj = d[k];
+    const auto first = static_cast<size_t>(block_row_offsets_[j]), last = static_cast<size_t>(block_row_offsets_[j + 1]);
+    product_sum_[j] += blocks_[first] * dj;  // K'_jj
+    for (size_t b = first + 1; b < last; ++b) {
+      const auto c = static_cast<size_t>(block_cols_[b]);
+      const Mat3& B = blocks_[b];  // K'_jc, c > j
+      product_sum_[c] += B.transpose() * dj;
+      const int e = product_entry_[c];
+      if (e >= 0) product_sum_[j] += B * d[static_cast<size_t>(e)];
+    }
+  }
+  for (size_t k = 0; k < rows.size(); ++k) y[k] = product_sum_[static_cast<size_t>(rows[k])];
+  // Clear what was touched: the moved rows and their columns.
+  for (const int v : moved) {
+    const auto j = static_cast<size_t>(v);
+    product_entry_[j] = -1;
+    const auto first = static_cast<size_t>(block_row_offsets_[j]), last = static_cast<size_t>(block_row_offsets_[j + 1]);
+    for (size_t b = first; b < last; ++b) product_sum_[static_cast<size_t>(block_cols_[b])] = Vec3::Zero();
+  }
+  return true;
 }
 
 }  // namespace pliant

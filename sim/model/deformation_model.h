@@ -85,6 +85,19 @@ class DeformationModel {
     internal_forces_at(x, vertices, f);
   }
 
+  /// The stiffness matrix K' the last `advance` solved with (element rotations frozen), applied to
+  /// displacements d (m) at the `moved` vertices (zero elsewhere): y[k] = sum_j K'_{rows[k] j} d_j (N).
+  /// With rotations frozen the internal force is linear in x, f(x1 + d) = f(x1) - K' d (the
+  /// contact stage's linearised binary search). Returns false where the model holds no such
+  /// matrix, or where a move changes an element's deformation gradient by more than
+  /// `strain_tolerance` (|d| |grad N|, dimensionless; a sliver's rotation turns fast): the caller
+  /// then asks a force query. The default: false.
+  virtual bool stiffness_product_at(std::span<const int> moved, std::span<const Vec3> d, std::span<const int> rows,
+                                    std::span<Vec3> y, double strain_tolerance) {
+    (void)moved, (void)d, (void)rows, (void)y, (void)strain_tolerance;
+    return false;
+  }
+
   /// Elastic energy (J) at positions x; internal_forces is its negative gradient.
   virtual double elastic_energy(std::span<const Vec3> x) = 0;
 

@@ -182,5 +182,79 @@ TEST(CorotationalLocalQuery, NearbyRotationQueryIsTheExactQueryWithinTheToleranc
   EXPECT_TRUE(bitwise_equal(nearby, exact));
 }
 
+// Session 6: K' d from the last advance's assembled blocks at a few rows (the linearised contact
+// search), against two references. (1) The whole-body product of the same step's stiffness
+// (apply_stiffness after advance: matrix-free, element by element from the rotations of x_n), which
+// with K' reuse off is the same matrix: round-off; with the default reuse the blocks' rotations lag
+// by at most 1e-3 rad, so each block is off by at most ~2e-3 of its size. (2) The exact forces by
+// finite differences: f(x1 + d) - f(x1) = -K' d to first order, up to the rotation change between
+// x_n and x1 (the contact edit's) times the stress.
+TEST(CorotationalLocalQuery, StiffnessProductIsTheStepsStiffnessAtTheAskedRows) {
+  SaggingBeam beam;
+  const std::vector<int> patch = beam.patch();
+  std::vector<Vec3> d(patch.size()), y(patch.size()), full_d(beam.n, Vec3::Zero()), full_y(beam.n);
+  for (size_t k = 0; k < patch.size(); ++k) {
+    d[k] = Vec3(2e-6 * static_cast<double>(k % 3), -1e-6, -1e-5 - 1e-6 * static_cast<double>(k));
+    full_d[static_cast<size_t>(patch[k])] = d[k];
+  }
+  for (const double tolerance : {0.0, kDefaultStiffnessRotationTolerance}) {
+    CorotationalFem model(beam.mesh, beam.m, {});
+    model.set_stiffness_rotation_tolerance(tolerance);
+    std::vector<Vec3> x = beam.x, v = beam.v;
+    EXPECT_FALSE(model.stiffness_product_at(patch, d, patch, y, 1.0)) << "no step yet: no K'";
+    for (int s = 0; s < 8; ++s) beam.step(model, x, v);
+    ASSERT_TRUE(model.stiffness_product_at(patch, d, patch, y, 1.0));
+    // The moves change F by ~1e-3 (26 um on 25 mm cells): refused below that.
+    EXPECT_FALSE(model.stiffness_product_at(patch, d, patch, y, 1e-4));
+    ASSERT_TRUE(model.stiffness_product_at(patch, d, patch, y, 1e-2));
+    model.apply_stiffness(full_d, full_y);
+    std::vector<Vec3> reference(patch.size());
+    for (size_t k = 0; k < patch.size(); ++k) reference[k] = full_y[static_cast<size_t>(patch[k])];
+    ASSERT_GT(max_norm(reference), 0.0);
+    const double error = max_difference(y, reference) / max_norm(reference);
+    std::printf("K' product at tolerance %g: %.3g of the largest entry\n", tolerance, error);
+    EXPECT_LT(error, tolerance > 0.0 ? 4.0 * tolerance : 1e-12) << tolerance;
+    // Asked twice, and for fewer rows: the same numbers (the scratch is cleared after each use).
+    std::vector<Vec3> again(patch.size());
+    ASSERT_TRUE(model.stiffness_product_at(patch, d, std::span<const int>(patch.data(), 3), again, 1.0));
+    for (size_t k = 0; k < 3; ++k) EXPECT_EQ(again[k], y[k]) << k;
+    // After a full pass the blocks no longer belong to the state: no product.
+    std::vector<Vec3> forces(beam.n);
+    model.internal_forces(x, forces);
+    EXPECT_FALSE(model.stiffness_product_at(patch, d, patch, y, 1.0));
+  }
+}
+
+TEST(CorotationalLocalQuery, StiffnessProductIsTheExactForceChangeToFirstOrder) {
+  SaggingBeam beam;
+  CorotationalFem model(beam.mesh, beam.m, {});
+  for (int s = 0; s < 8; ++s) beam.step(model, beam.x, beam.v);
+  const std::vector<int> patch = beam.patch();
+  // x1: the patch dented 0.4 mm (h / 60 on 25 mm cells, the size of a first search step); then
+  // moved by up to 0.1 mm more (the later search steps).
+  std::vector<Vec3> x1 = beam.x, d(patch.size());
+  for (size_t k = 0; k < patch.size(); ++k) {
+    x1[static_cast<size_t>(patch[k])] += Vec3(0.0, 0.0, -4e-4 - 1e-5 * static_cast<double>(k % 4));
+    d[k] = Vec3(1e-5 * static_cast<double>(k % 3), 0.0, -1e-4 + 1e-5 * static_cast<double>(k % 5));
+  }
+  std::vector<Vec3> x2 = x1;
+  for (size_t k = 0; k < patch.size(); ++k) x2[static_cast<size_t>(patch[k])] += d[k];
+  std::vector<Vec3> f1(patch.size()), f2(patch.size()), product(patch.size()), change(patch.size()),
+      predicted(patch.size());
+  ASSERT_TRUE(model.stiffness_product_at(patch, d, patch, product, 1.0));
+  model.internal_forces_at(x1, patch, f1);
+  model.internal_forces_at(x2, patch, f2);
+  for (size_t k = 0; k < patch.size(); ++k) {
+    change[k] = f2[k] - f1[k];
+    predicted[k] = -product[k];
+  }
+  ASSERT_GT(max_norm(change), 0.0);
+  const double error = max_difference(predicted, change) / max_norm(change);
+  std::printf("f(x1 + d) - f(x1) against -K' d: %.3g of the largest change\n", error);
+  // The frozen law's error is about the rotation between the rotations K' was built from (x_n's)
+  // and x1's: the dent's, 0.4 mm over 25 mm cells ~ 0.016 rad (measured 0.0064).
+  EXPECT_LT(error, 0.016);
+}
+
 }  // namespace
 }  // namespace pliant
