@@ -124,6 +124,40 @@ BENCHMARK(BM_BruteForceDetect)->Arg(1000)->Arg(2000)->Arg(5000)->Arg(10000)->Arg
 // jitter per vertex of up to 0.5 mm), as consecutive steps would: every call sees new positions,
 // so no cached surface data can be reused as is. range(2) = 0 repeats one pose instead (the
 // session-2 benchmark; with unchanged positions the hierarchies are then kept between calls).
+// range(3) (probe: range(1)), PenetrationDepthOptions::surface_query: 0 = BVH queries, 1 = contact
+// rays by the tet walk, 2 = edges and rays by the tet walk.
+PenetrationDepthOptions depth_options(int64_t walk) {
+  PenetrationDepthOptions o;
+  o.surface_query = walk == 2 ? SurfaceQueryMethod::tet_walk
+                    : walk == 1 ? SurfaceQueryMethod::tet_walk_rays
+                                : SurfaceQueryMethod::bvh;
+  return o;
+}
+
+// Walk counters of one verifying compute per pose (outside the timed loop): edges and rays walked,
+// walks that fell back to the BVH, and walked answers that differ from the BVH's (edges and rays walked).
+void walk_counters(benchmark::State& state, const std::vector<CollisionBody>* const bodies[2],
+                   const std::vector<VertexInTet> colliding[2]) {
+  PenetrationDepthOptions o = depth_options(2);
+  o.tet_walk_verify = true;
+  PenetrationDepthSolver verify(o);
+  std::vector<VertexContact> contacts;
+  double edges = 0, rays = 0, fallbacks = 0, mismatches = 0, tets = 0;
+  for (int k = 0; k < 2; ++k) {
+    verify.compute(*bodies[k], colliding[k], contacts);
+    const auto& st = verify.stats();
+    edges += static_cast<double>(st.walked_edges + st.walk_edge_fallbacks);
+    rays += st.walked_rays + st.walk_ray_fallbacks;
+    fallbacks += static_cast<double>(st.walk_edge_fallbacks + st.walk_ray_fallbacks);
+    mismatches += static_cast<double>(st.walk_mismatches);
+    tets += static_cast<double>(st.walk_tets);
+  }
+  state.counters["tets_per_walk"] = tets / std::max(1.0, edges + rays);
+  state.counters["walk_queries"] = edges + rays;
+  state.counters["walk_fallbacks"] = fallbacks;
+  state.counters["walk_mismatches"] = mismatches;
+}
+
 void BM_PenetrationDepth(benchmark::State& state) {
   HeapScene s = make_heap(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true);
   const bool moving = state.range(2) != 0;
@@ -141,7 +175,7 @@ void BM_PenetrationDepth(benchmark::State& state) {
   std::vector<VertexInTet> colliding[2];
   hash.detect(*bodies[0], s.filter, colliding[0]);
   hash.detect(*bodies[1], s.filter, colliding[1]);
-  PenetrationDepthSolver solver;
+  PenetrationDepthSolver solver(depth_options(state.range(3)));
   std::vector<VertexContact> contacts;
   solver.compute(*bodies[0], colliding[0], contacts);
   int k = 0;
@@ -158,13 +192,16 @@ void BM_PenetrationDepth(benchmark::State& state) {
   state.counters["propagated"] = st.propagated_points;
   state.counters["enclosed"] = st.enclosed_fallback_points;
   state.counters["edges_per_point"] = static_cast<double>(st.edge_intersections) / static_cast<double>(colliding[k].size());
+  if (state.range(3) != 0) walk_counters(state, bodies, colliding);
   state.counters["time_per_point"] =
       benchmark::Counter(points, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_PenetrationDepth)
-    ->Args({1000, 4, 1})->Args({10000, 4, 1})->Args({30000, 4, 1})->Args({100000, 4, 1})->Args({100000, 8, 1})
-    ->Args({10000, 4, 0})->Args({100000, 4, 0})->Args({100000, 8, 0})
-    ->ArgNames({"tets", "cells", "moving"})->Unit(benchmark::kMillisecond);
+    ->ArgsProduct({{1000, 10000, 30000, 100000}, {4}, {1}, {0, 1, 2}})
+    ->Args({100000, 8, 1, 0})->Args({100000, 8, 1, 1})->Args({100000, 8, 1, 2})
+    ->Args({10000, 4, 0, 0})->Args({100000, 4, 0, 0})->Args({100000, 8, 0, 0})
+    ->Args({10000, 4, 0, 2})->Args({100000, 4, 0, 2})->Args({100000, 8, 0, 2})
+    ->ArgNames({"tets", "cells", "moving", "walk"})->Unit(benchmark::kMillisecond);
 
 // The probe scene of `pliant bench probe --warm-up 700 --steps 100` (assets/scenes/probe.json:
 // 1,931 vertices, tissue 12x12x5 cells and a sphere-tipped probe being pressed in): stages 1 and 2
@@ -284,7 +321,7 @@ void BM_ProbeDepth(benchmark::State& state) {
   std::vector<VertexInTet> colliding[2];
   hash.detect(bodies[0], filter[0], colliding[0]);
   hash.detect(bodies[1], filter[1], colliding[1]);
-  PenetrationDepthSolver solver;
+  PenetrationDepthSolver solver(depth_options(state.range(1)));
   std::vector<VertexContact> contacts;
   solver.compute(bodies[0], colliding[0], contacts);
   int k = 0;
@@ -297,8 +334,12 @@ void BM_ProbeDepth(benchmark::State& state) {
   state.counters["time_per_point"] = benchmark::Counter(static_cast<double>(colliding[k].size()),
                                                         benchmark::Counter::kIsIterationInvariantRate |
                                                             benchmark::Counter::kInvert);
+  if (state.range(1) != 0) {
+    const std::vector<CollisionBody>* const b[2] = {&bodies[0], &bodies[1]};
+    walk_counters(state, b, colliding);
+  }
 }
-BENCHMARK(BM_ProbeDepth)->Arg(750)->Arg(1100)->ArgName("step")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ProbeDepth)->ArgsProduct({{750, 1100}, {0, 1, 2}})->ArgNames({"step", "walk"})->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace pliant

@@ -6,70 +6,132 @@
 #include <limits>
 
 #include "sim/collision/contact_triangle.h"
+#include "sim/collision/tet_walk.h"
 
 namespace pliant {
 
 PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<const CollisionBody> bodies,
-                                                                    int body) {
+                                                                    int body, bool need_bvh) {
   Surface& s = surfaces_[static_cast<size_t>(body)];
   if (s.built_in_call != call_) {
     const CollisionBody& cb = bodies[static_cast<size_t>(body)];
-    if (s.bvh.mesh() != cb.mesh) {
-      s.bvh.build(*cb.mesh, cb.positions);
-      s.refits = 0;
-      ++stats_.surfaces_built;
-    } else {
-      // Lazy while the surface stays near where its boxes were fitted; a full refit otherwise, and
-      // every bvh_rebuild_interval-th full update a rebuild (restores the tree after deformation).
-      const SurfaceBvhUpdate u =
-          s.bvh.refit(cb.positions, options_.bvh_lazy_refit_edges, s.refits + 1 >= options_.bvh_rebuild_interval);
-      switch (u) {
-        case SurfaceBvhUpdate::unchanged: ++stats_.surfaces_unchanged; break;
-        case SurfaceBvhUpdate::lazy: ++stats_.surfaces_lazy; break;
-        case SurfaceBvhUpdate::refit: ++s.refits; ++stats_.surfaces_refitted; break;
-        case SurfaceBvhUpdate::rebuild: s.refits = 0; ++stats_.surfaces_built; break;
-      }
-    }
+    s.mesh = cb.mesh;
+    s.x = cb.positions;
     // Vertex normals only where a hit needs them (vertex_normal), not for the whole surface.
     s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
     s.normal_epoch.resize(static_cast<size_t>(cb.mesh->vertex_count()), 0);
     s.face_cross.resize(static_cast<size_t>(cb.mesh->surface_triangle_count()));
     s.face_epoch.resize(static_cast<size_t>(cb.mesh->surface_triangle_count()), 0);
     s.built_in_call = call_;
+    // Walk mode does not measure the surface's motion (no refit unless a query needs the BVH):
+    // normals are keyed on the call (top bit set: never equal to a hierarchy's pose epoch).
+    if (options_.surface_query == SurfaceQueryMethod::tet_walk) s.pose_key = call_ | (std::uint64_t{1} << 63);
   }
+  if (need_bvh) ensure_bvh(s);
   return s;
+}
+
+void PenetrationDepthSolver::ensure_bvh(Surface& s) {
+  if (s.bvh_in_call == call_) return;
+  if (s.bvh.mesh() != s.mesh) {
+    s.bvh.build(*s.mesh, s.x);
+    s.refits = 0;
+    ++stats_.surfaces_built;
+  } else {
+    // Lazy while the surface stays near where its boxes were fitted; a full refit otherwise, and
+    // every bvh_rebuild_interval-th full update a rebuild (restores the tree after deformation).
+    const SurfaceBvhUpdate u =
+        s.bvh.refit(s.x, options_.bvh_lazy_refit_edges, s.refits + 1 >= options_.bvh_rebuild_interval);
+    switch (u) {
+      case SurfaceBvhUpdate::unchanged: ++stats_.surfaces_unchanged; break;
+      case SurfaceBvhUpdate::lazy: ++stats_.surfaces_lazy; break;
+      case SurfaceBvhUpdate::refit: ++s.refits; ++stats_.surfaces_refitted; break;
+      case SurfaceBvhUpdate::rebuild: s.refits = 0; ++stats_.surfaces_built; break;
+    }
+  }
+  s.bvh_in_call = call_;
+  if (options_.surface_query != SurfaceQueryMethod::tet_walk) s.pose_key = s.bvh.pose_epoch();
+}
+
+void PenetrationDepthSolver::walk_fan(Surface& surface, const VertexInTet& c, const Vec3& p) {
+  fan_failed_.clear();
+  for (size_t e = 0; e < fan_origins_.size(); ++e) {
+    int steps = 0;
+    const bool hit = walk_edge_hit(*surface.mesh, surface.x, c.tet, p, fan_origins_[e], options_.tet_walk_max_steps,
+                                   fan_hits_[e], &steps);
+    stats_.walk_tets += steps;
+    if (hit) {
+      fan_found_[e] = 1;
+      ++stats_.walked_edges;
+    } else {
+      fan_found_[e] = 0;
+      fan_failed_.push_back(static_cast<int>(e));
+      ++stats_.walk_edge_fallbacks;
+    }
+  }
+  const bool verify = options_.tet_walk_verify;
+  if (fan_failed_.empty() && !verify) return;
+  ensure_bvh(surface);
+  // The failed edges (or, to verify, all of them) through the BVH's fan query.
+  fallback_origins_.clear();
+  fallback_exclude_.clear();
+  for (size_t e = 0; e < fan_origins_.size(); ++e) {
+    if (!verify && !fan_found_[e]) fallback_origins_.push_back(fan_origins_[e]);
+    if (verify) fallback_origins_.push_back(fan_origins_[e]);
+  }
+  fallback_exclude_.assign(fallback_origins_.size(), -1);
+  fallback_hits_.resize(fallback_origins_.size());
+  fallback_found_.resize(fallback_origins_.size());
+  surface.bvh.first_segment_hits(p, -1, fallback_origins_, fallback_exclude_, fallback_hits_, fallback_found_);
+  if (verify) {
+    for (size_t e = 0; e < fan_origins_.size(); ++e) {
+      if (!fan_found_[e]) {
+        fan_found_[e] = fallback_found_[e];
+        fan_hits_[e] = fallback_hits_[e];
+      } else if (!fallback_found_[e] || fallback_hits_[e].triangle != fan_hits_[e].triangle ||
+                 fallback_hits_[e].t != fan_hits_[e].t) {
+        ++stats_.walk_mismatches;
+      }
+    }
+    return;
+  }
+  for (size_t i = 0; i < fan_failed_.size(); ++i) {
+    const auto e = static_cast<size_t>(fan_failed_[i]);
+    fan_found_[e] = fallback_found_[i];
+    fan_hits_[e] = fallback_hits_[i];
+  }
 }
 
 const Vec3& PenetrationDepthSolver::face_cross(Surface& surface, int triangle) {
   Vec3& c = surface.face_cross[static_cast<size_t>(triangle)];
-  if (surface.face_epoch[static_cast<size_t>(triangle)] != surface.bvh.pose_epoch()) {
-    const auto& tri = surface.bvh.mesh()->surface_triangles()[static_cast<size_t>(triangle)];
-    const std::span<const Vec3> x = surface.bvh.positions();
+  if (surface.face_epoch[static_cast<size_t>(triangle)] != surface.pose_key) {
+    const auto& tri = surface.mesh->surface_triangles()[static_cast<size_t>(triangle)];
+    const std::span<const Vec3> x = surface.x;
     const Vec3& a = x[static_cast<size_t>(tri[0])];
     c = (x[static_cast<size_t>(tri[1])] - a).cross(x[static_cast<size_t>(tri[2])] - a);
-    surface.face_epoch[static_cast<size_t>(triangle)] = surface.bvh.pose_epoch();
+    surface.face_epoch[static_cast<size_t>(triangle)] = surface.pose_key;
   }
   return c;
 }
 
 const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
   Vec3& n = surface.vertex_normals[static_cast<size_t>(v)];
-  if (surface.normal_epoch[static_cast<size_t>(v)] != surface.bvh.pose_epoch()) {
+  if (surface.normal_epoch[static_cast<size_t>(v)] != surface.pose_key) {
     // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
     // ascending triangle order (vertex_surface_triangles is sorted), then normalised. Each face's
     // cross product is computed once per pose and shared by its three corners (same values).
     n.setZero();
-    for (int t : surface.bvh.mesh()->vertex_surface_triangles(v)) n += face_cross(surface, t);
+    for (int t : surface.mesh->vertex_surface_triangles(v)) n += face_cross(surface, t);
     const double len = n.norm();
     if (len > 0.0) n /= len;
-    surface.normal_epoch[static_cast<size_t>(v)] = surface.bvh.pose_epoch();
+    surface.normal_epoch[static_cast<size_t>(v)] = surface.pose_key;
   }
   return n;
 }
 
 Vec3 PenetrationDepthSolver::smoothed_normal(Surface& surface, const SurfacePoint& hit) {
   // Heidelberger 2004, section 4.2: barycentric interpolation of the hit face's vertex normals.
-  const TetMesh& mesh = *surface.bvh.mesh();
+  const TetMesh& mesh = *surface.mesh;
   const auto& tri = mesh.surface_triangles()[static_cast<size_t>(hit.triangle)];
   Vec3 n = Vec3::Zero();
   for (int k = 0; k < 3; ++k) {
@@ -78,7 +140,7 @@ Vec3 PenetrationDepthSolver::smoothed_normal(Surface& surface, const SurfacePoin
   const double len = n.norm();
   if (len > 1e-12) return n / len;
   // Opposite vertex normals cancel (a sharp fold): the flat face normal instead.
-  return mesh.triangle_normal(surface.bvh.positions(), hit.triangle);
+  return mesh.triangle_normal(surface.x, hit.triangle);
 }
 
 void PenetrationDepthSolver::compute(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
@@ -130,7 +192,11 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
   const TetMesh& mesh = *body.mesh;
   const std::span<const Vec3> x = body.positions;
   const bool self = first.body == first.penetrated_body;
-  Surface& surface = surface_of(bodies, first.penetrated_body);
+  // The walk needs the stage-1 tet of p in the penetrated body and leaves by any boundary face: it
+  // does not fit self-collision, whose queries skip the triangles holding p or q.
+  const bool walk = options_.surface_query != SurfaceQueryMethod::bvh && !self;          // contact rays
+  const bool walk_edges = options_.surface_query == SurfaceQueryMethod::tet_walk && !self;
+  Surface& surface = surface_of(bodies, first.penetrated_body, !walk_edges);
   const int count = static_cast<int>(group.size());
   // Weights 1/|.|^2 are capped where two points (nearly) coincide.
   const double min_distance_squared = std::pow(1e-9 * std::max(mesh.mean_edge_length(), 1e-300), 2);
@@ -185,7 +251,11 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     stats_.edge_intersections += static_cast<long long>(fan_origins_.size());
     fan_hits_.resize(fan_origins_.size());
     fan_found_.resize(fan_origins_.size());
-    surface.bvh.first_segment_hits(p, self ? c.vertex : -1, fan_origins_, fan_exclude_, fan_hits_, fan_found_);
+    if (walk_edges) {
+      walk_fan(surface, c, p);
+    } else {
+      surface.bvh.first_segment_hits(p, self ? c.vertex : -1, fan_origins_, fan_exclude_, fan_hits_, fan_found_);
+    }
     for (size_t e = 0; e < fan_origins_.size(); ++e) {
       if (!fan_found_[e]) continue;
       const SurfacePoint& best = fan_hits_[e];
@@ -278,6 +348,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     const int exclude = self ? r.vertex : -1;
     if (layer_[static_cast<size_t>(k)] < 0) {
       // Beyond the paper: nearest point of the penetrated surface (docs/penetration-depth.md).
+      if (walk) ensure_bvh(surface);
       SurfacePoint nearest;
       if (!surface.bvh.nearest_point(p, exclude, nearest)) {
         ++stats_.dropped;
@@ -296,6 +367,32 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       ++stats_.clamped_negative_depths;
     }
     // Contact triangle: first hit of the ray x + t r, t >= 0; else the nearest surface triangle.
+    if (walk && r.penetration_direction.squaredNorm() > 0.5) {
+      // The walk from p's stage-1 tet finds the first crossing from p: the ray query's answer.
+      SurfacePoint h;
+      int steps = 0;
+      const bool hit = walk_ray_hit(*surface.mesh, surface.x, r.tet, p, r.penetration_direction,
+                                    options_.tet_walk_max_steps, h, &steps);
+      stats_.walk_tets += steps;
+      if (hit) {
+        ++stats_.walked_rays;
+        if (options_.tet_walk_verify) {
+          ensure_bvh(surface);
+          SurfacePoint b;
+          if (!surface.bvh.first_ray_hit(p, r.penetration_direction, -1, b) || b.triangle != h.triangle || b.t != h.t) {
+            ++stats_.walk_mismatches;
+          }
+        }
+        r.triangle_source = ContactTriangleSource::ray;
+        r.contact_triangle = h.triangle;
+        r.contact_barycentric = h.barycentric;
+        r.contact_point = h.point;
+        has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+        continue;
+      }
+      ++stats_.walk_ray_fallbacks;
+    }
+    if (walk) ensure_bvh(surface);
     // The triangle its nearest edge hit (or nearest inner neighbour's) crossed usually is the
     // answer: its ray parameter, plus a rounding margin, bounds the search (same answer, fewer nodes).
     double t_bound = std::numeric_limits<double>::max();
@@ -303,7 +400,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     double t_hint = 0.0;
     if (hint >= 0 && r.penetration_direction.squaredNorm() > 0.5 &&
         surface.bvh.ray_hits_triangle(p, r.penetration_direction, hint, t_hint)) {
-      t_bound = t_hint + 1e-9 * (t_hint + p.cwiseAbs().maxCoeff() + surface.bvh.mesh()->mean_edge_length());
+      t_bound = t_hint + 1e-9 * (t_hint + p.cwiseAbs().maxCoeff() + surface.mesh->mean_edge_length());
     }
     const auto hit = find_contact_triangle(surface.bvh, p, r.penetration_direction, exclude, t_bound);
     if (!hit) {

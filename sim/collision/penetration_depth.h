@@ -26,8 +26,25 @@
 
 namespace pliant {
 
+/// How stage 2 finds where border edges and contact rays meet the penetrated surface.
+enum class SurfaceQueryMethod {
+  bvh,             ///< SurfaceBvh queries for edges and contact rays
+  tet_walk_rays,   ///< contact rays by a tet walk (the same answer: the first crossing from p), edges by the BVH
+  tet_walk,        ///< edges and contact rays by a tet walk; an edge that leaves and re-enters the
+                   ///< penetrated body gets the crossing nearest p, not the paper's nearest q
+};
+
 /// Tuning of stage 2.
 struct PenetrationDepthOptions {
+  /// Edge and contact-ray queries (docs/penetration-depth.md, "Tet walk"). Self-collision groups
+  /// always use the BVH. With tet_walk the surface hierarchy is only brought up to date when a query
+  /// needs it (a failed walk, an enclosed point). A walk that fails falls back to the BVH.
+  SurfaceQueryMethod surface_query = SurfaceQueryMethod::tet_walk_rays;
+  /// A walk crossing more tets than this fails (the BVH answers instead).
+  int tet_walk_max_steps = 256;
+  /// Diagnostic: with tet_walk, also run the BVH query for every walked edge and ray and count the
+  /// answers that differ (stats().walk_mismatches); the walk's answers are kept.
+  bool tet_walk_verify = false;
   /// A penetrated body's surface hierarchy is rebuilt instead of its bvh_rebuild_interval-th full
   /// refit (1: every full update is a rebuild).
   int bvh_rebuild_interval = 16;
@@ -52,6 +69,12 @@ struct PenetrationDepthStats {
   int surfaces_lazy = 0;            ///< ... whose hierarchy only inflated its boxes (lazy refit)
   int surfaces_refitted = 0;        ///< ... whose hierarchy was refitted in full
   int surfaces_built = 0;           ///< ... whose hierarchy was (re)built
+  long long walked_edges = 0;       ///< border edges answered by a tet walk
+  long long walk_edge_fallbacks = 0;///< border edges whose walk failed (answered by the BVH)
+  int walked_rays = 0;              ///< contact rays answered by a tet walk
+  int walk_ray_fallbacks = 0;       ///< contact rays whose walk failed (answered by the BVH)
+  long long walk_mismatches = 0;    ///< tet_walk_verify: walked answers (triangle or t) unlike the BVH's
+  long long walk_tets = 0;          ///< tets visited by all walks (edges and rays)
 };
 
 class PenetrationDepthSolver {
@@ -72,6 +95,10 @@ class PenetrationDepthSolver {
  private:
   /// The penetrated body's surface at this step: hierarchy and smoothed vertex normals.
   struct Surface {
+    const TetMesh* mesh = nullptr;    ///< the penetrated body's mesh and positions at this call
+    std::span<const Vec3> x;
+    std::uint64_t pose_key = 0;       ///< normals and face cross products are valid for this key
+    std::uint64_t bvh_in_call = 0;    ///< call counter value when bvh was last brought to x
     SurfaceBvh bvh;
     std::vector<Vec3> vertex_normals;         ///< valid where normal_epoch equals bvh.pose_epoch()
     std::vector<std::uint64_t> normal_epoch;  ///< per vertex: bvh.pose_epoch() of its normal
@@ -81,7 +108,12 @@ class PenetrationDepthSolver {
     int refits = 0;                   ///< full refits since the last build
   };
 
-  Surface& surface_of(std::span<const CollisionBody> bodies, int body);
+  /// The penetrated body's surface at this call; its hierarchy brought up to date if `need_bvh`.
+  Surface& surface_of(std::span<const CollisionBody> bodies, int body, bool need_bvh);
+  /// Brings the surface's hierarchy to this call's positions (once per call).
+  void ensure_bvh(Surface& surface);
+  /// Fan query for the border point p: the walk where it succeeds, the BVH for the rest.
+  void walk_fan(Surface& surface, const VertexInTet& c, const Vec3& p);
   void solve_group(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
                    std::span<const int> group);
   Vec3 smoothed_normal(Surface& surface, const SurfacePoint& hit);
@@ -106,6 +138,11 @@ class PenetrationDepthSolver {
   std::vector<int> fan_exclude_;              ///< their vertex indices in self-collision, else -1
   std::vector<SurfacePoint> fan_hits_;        ///< first hit of each edge from the neighbour
   std::vector<char> fan_found_;               ///< the edge crosses the surface
+  std::vector<int> fan_failed_;               ///< walk mode: fan entries whose walk failed
+  std::vector<Vec3> fallback_origins_;        ///< ... their origins, excludes, hits (BVH query)
+  std::vector<int> fallback_exclude_;
+  std::vector<SurfacePoint> fallback_hits_;
+  std::vector<char> fallback_found_;
 };
 
 }  // namespace pliant

@@ -9,7 +9,7 @@ namespace pliant {
 namespace {
 
 // Outward faces of a positively oriented tet (0,1,2,3): each listed counter-clockwise from outside.
-constexpr int kTetFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+constexpr const auto& kTetFaces = TetMesh::kTetFaceCorners;
 
 // Compressed rows (CSR) from (row, value) pairs.
 void build_csr(int rows, std::vector<std::pair<int, int>>& pairs, std::vector<int>& offsets,
@@ -93,25 +93,37 @@ void TetMesh::build_boundary(const std::string& source) {
     std::array<int, 3> key;       // sorted vertex ids
     TriIndices oriented;          // outward winding
     int tet;
+    int face;                     // local face index k (opposite the tet's vertex k)
   };
   std::vector<Face> faces;
   faces.reserve(tets_.size() * 4);
   for (size_t t = 0; t < tets_.size(); ++t) {
-    for (const auto& f : kTetFaces) {
+    for (int k = 0; k < 4; ++k) {
+      const auto& f = kTetFaces[k];
       TriIndices tri{tets_[t][static_cast<size_t>(f[0])], tets_[t][static_cast<size_t>(f[1])],
                      tets_[t][static_cast<size_t>(f[2])]};
       std::array<int, 3> key = tri;
       std::sort(key.begin(), key.end());
-      faces.push_back({key, tri, static_cast<int>(t)});
+      faces.push_back({key, tri, static_cast<int>(t), k});
     }
   }
+  // Tet-face adjacency (filled below from the same sorted faces): neighbour across each face, or
+  // the surface triangle a boundary face is.
+  tet_face_neighbors_.assign(tets_.size(), {-1, -1, -1, -1});
+  tet_face_triangles_.assign(tets_.size(), {-1, -1, -1, -1});
   std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
   for (size_t i = 0; i < faces.size();) {
     size_t j = i + 1;
     while (j < faces.size() && faces[j].key == faces[i].key) ++j;
     if (j - i == 1) {
+      tet_face_triangles_[static_cast<size_t>(faces[i].tet)][static_cast<size_t>(faces[i].face)] =
+          static_cast<int>(surface_triangles_.size());
       surface_triangles_.push_back(faces[i].oriented);
       surface_triangle_tets_.push_back(faces[i].tet);
+    } else if (j - i == 2) {
+      tet_face_neighbors_[static_cast<size_t>(faces[i].tet)][static_cast<size_t>(faces[i].face)] = faces[i + 1].tet;
+      tet_face_neighbors_[static_cast<size_t>(faces[i + 1].tet)][static_cast<size_t>(faces[i + 1].face)] =
+          faces[i].tet;
     } else if (j - i > 2) {
       throw InputError(InputErrorKind::topology, source,
                        "face (" + std::to_string(faces[i].key[0]) + ", " + std::to_string(faces[i].key[1]) +

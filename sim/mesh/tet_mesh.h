@@ -3,6 +3,7 @@
 // (std::shared_ptr<const TetMesh>) by every body that uses it. Per-step state lives in Body.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <span>
 #include <string>
@@ -57,6 +58,12 @@ class TetMesh {
   double total_rest_volume() const { return total_rest_volume_; }
   /// Tags per tet from the file (physical group, region attribute); empty if none.
   const std::vector<int>& tet_tags() const { return tet_tags_; }
+  /// Face k of a tet is the one opposite its vertex k, wound as kTetFaceCorners[k] (outward).
+  static constexpr int kTetFaceCorners[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  /// Per tet and face k: the tet sharing that face, or -1 on the boundary.
+  const std::vector<std::array<int, 4>>& tet_face_neighbors() const { return tet_face_neighbors_; }
+  /// Per tet and face k: the surface triangle that face is (boundary faces), or -1 (interior faces).
+  const std::vector<std::array<int, 4>>& tet_face_triangles() const { return tet_face_triangles_; }
   /// Unique edges of all tets.
   const std::vector<Edge>& edges() const { return edges_; }
   /// Mean rest length of all edges (m); the spatial hash's cell size.
@@ -107,6 +114,8 @@ class TetMesh {
   double total_rest_volume_ = 0.0;
   std::vector<TriIndices> surface_triangles_;
   std::vector<int> surface_triangle_tets_;
+  std::vector<std::array<int, 4>> tet_face_neighbors_;
+  std::vector<std::array<int, 4>> tet_face_triangles_;
   std::vector<Edge> edges_;
   double mean_edge_length_ = 0.0;
   std::vector<int> surface_vertices_;
