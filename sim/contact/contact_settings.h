@@ -53,6 +53,13 @@ struct ContactSettings {
   /// it passes the matrix's nu 0.499 and ratio 1e6 cases but fails four default-suite tests
   /// (scale invariance, Hertz slope, secant at extreme ratios, free block at rest) and makes dt 20 ms worse.
   bool cfl_limited_displacement = false;
+  /// Beyond the paper, opt-in (docs/contact-surface.md, "Contact inside the implicit solve (session
+  /// 6)"): after the response, every corotational-FEM body with contact vertices re-solves its
+  /// implicit step from the start of the step with each contact vertex's normal position prescribed
+  /// at the contact surface the response found (Baraff & Witkin 1998 sec. 5.3), so the dent spreads
+  /// over the depth the implicit step reaches and positions and velocities come from one solve.
+  /// Reactions on kinematic bodies then come from the constraint forces. false: the paper's path.
+  bool implicit_correction = false;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

@@ -23,8 +23,10 @@
 namespace pliant {
 namespace {
 
-/// Solves after the first in which pulling constraints are released.
-constexpr int kReleasePasses = 2;
+/// Solves after the first in which pulling constraints are released (an active-set loop). Measured
+/// on the drop of a nu 0.499 block at CFL 4-13 (tests/sim/contact_implicit_correction_test.cpp):
+/// 2 passes left 65 pulling constraints over the sweep, 4 left 2, 8 none; most steps need none.
+constexpr int kReleasePasses = 8;
 
 }  // namespace
 
