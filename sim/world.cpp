@@ -220,7 +220,11 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
   { StageScope s(profiler, StepStage::integrate); integrate(dt); }
   { StageScope s(profiler, StepStage::detect); detect(); }
   { StageScope s(profiler, StepStage::depth); compute_penetration_depth(); }
-  { StageScope s(profiler, StepStage::respond); respond(dt); }
+  {  // the opt-in correction is timed with the response it completes
+    StageScope s(profiler, StepStage::respond);
+    respond(dt);
+    correct_in_implicit_solve(dt);
+  }
   { StageScope s(profiler, StepStage::report); report(); }
 
   if (!report_.all_finite) {
@@ -347,6 +351,13 @@ void World::respond(double dt) {
   if (contacts_.empty() && !held) return;
   switch (settings_.contact.method) {
     case ContactMethod::contact_surface:
+      if (settings_.contact.implicit_correction) {
+        // The correction's constraints hold the dent: no held forces (docs/contact-surface.md, session 6).
+        ContactSettings contact = settings_.contact;
+        contact.held_force_fraction = 0.0;
+        contact_surface_->respond(body_view_, contacts_, dt, contact, report_);
+        break;
+      }
       contact_surface_->respond(body_view_, contacts_, dt, settings_.contact, report_);
       break;
     case ContactMethod::penalty:
@@ -358,6 +369,15 @@ void World::respond(double dt) {
       }
       break;
   }
+}
+
+void World::correct_in_implicit_solve(double dt) {
+  if (!settings_.contact.implicit_correction || settings_.contact.method != ContactMethod::contact_surface ||
+      contacts_.empty()) {
+    return;
+  }
+  implicit_correction_.correct(body_view_, contacts_, saved_positions_, saved_velocities_, settings_.gravity, dt,
+                               report_);
 }
 
 bool World::state_is_finite() const {
