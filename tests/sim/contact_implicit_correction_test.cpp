@@ -355,7 +355,7 @@ TEST(ImplicitContactCorrection, ABlockAtRestOnAFloorCarriesItsWeight) {
 // separately, so Newton's third law between the bodies holds only as far as the contact surface the
 // response found balances them. Reference: the total momentum of the pair, which no external force
 // changes: it stays within 1e-4 of the momentum each block brought in.
-TEST(ImplicitContactCorrection, TwoFreeBlocksColliding_KeepTheirTotalMomentum) {
+TEST(ImplicitContactCorrection, TwoFreeBlocksCollidingKeepTheirTotalMomentum) {
   World world;
   world.settings().gravity = Vec3::Zero();
   world.settings().contact.implicit_correction = true;
@@ -396,6 +396,45 @@ TEST(ImplicitContactCorrection, OffNeverRuns) {
     off.world.step(1e-3);
     EXPECT_EQ(off.world.implicit_contact_correction().corrected_bodies(), 0);
   }
+}
+
+// KNOWN FAILURE (session 6): two free stiff blocks (E 1 MPa, 30 mm, 2 x 2 x 2 cells) stacked on a
+// frictionless kinematic floor, dt 1 ms, with the correction: each body's constraint forces come
+// from its own solve, so between the two deformable blocks they are not equal and opposite; along
+// the contact triangles' slightly tilted normals the difference is a steady horizontal force
+// (measured: the lower block's centre of mass accelerates at ~2e-2 m/s^2 sideways, the upper one
+// the other way at a seventh of that, total momentum not kept) until the stack slides apart at
+// ~0.47 s (KE 1e-2 J). tests/sim/contact_resting_churn_test.cpp with
+// PLIANT_CHURN_IMPLICIT_CORRECTION=1: late KE 0.169 J (0.158 J with mu 0.5) against the floor
+// 2.6e-6 J. A fix couples the two bodies' constraints in one solve (relative constraint
+// (x_a - sum w_k x_bk) . n = 0), not done.
+TEST(ImplicitContactCorrection, DISABLED_TwoStackedBlocksRestAtOneMillisecond) {
+  World world;
+  world.settings().contact.implicit_correction = true;
+  world.settings().contact.friction = false;
+  world.settings().contact.finishing_projection = true;
+  Material m = tissue(1e6, 0.3, 0.0);
+  m.mass_damping = 0.0;
+  m.stiffness_damping = 1e-3;
+  const auto mesh = make_box_mesh({Vec3(0.03, 0.03, 0.03), 2, 2, 2});
+  double mass = 0.0;
+  for (int k = 0; k < 2; ++k) {
+    BodyDef block{.name = "block" + std::to_string(k), .mesh = mesh, .material = m};
+    block.pose.translation = Vec3(0.003 * k, -0.002 * k, 0.015 + 0.03 * k);
+    mass += world.body(world.add_body(block)).total_mass();
+  }
+  BodyDef floor{.name = "floor", .mesh = make_box_mesh({Vec3(0.5, 0.5, 0.02), 4, 4, 1}), .material = m,
+                .motion = BodyMotion::kinematic};
+  floor.pose.translation = Vec3(0, 0, -0.01);
+  world.add_body(floor);
+  const double dt = 1e-3;
+  double kinetic_late = 0.0;
+  for (int i = 1; i <= 700; ++i) {
+    const StepReport& r = world.step(dt);
+    ASSERT_EQ(r.fault, StepFault::none) << i;
+    if (i > 500) kinetic_late = std::max(kinetic_late, r.energy.kinetic);
+  }
+  EXPECT_LT(kinetic_late, 0.5 * mass * (9.81 * dt) * (9.81 * dt));
 }
 
 }  // namespace
