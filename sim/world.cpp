@@ -222,6 +222,10 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
   { StageScope s(profiler, StepStage::depth); compute_penetration_depth(); }
   {  // the opt-in correction is timed with the response it completes
     StageScope s(profiler, StepStage::respond);
+    if (settings_.contact.implicit_correction == ImplicitCorrection::stiff_partners) {
+      const auto held = contact_surface_->held_contacts();  // before respond replaces them
+      held_in_step_.assign(held.begin(), held.end());
+    }
     respond(dt);
     correct_in_implicit_solve(dt);
   }
@@ -351,7 +355,7 @@ void World::respond(double dt) {
   if (contacts_.empty() && !held) return;
   switch (settings_.contact.method) {
     case ContactMethod::contact_surface:
-      if (settings_.contact.implicit_correction) {
+      if (settings_.contact.implicit_correction == ImplicitCorrection::all) {
         // The correction's constraints hold the dent: no held forces (docs/contact-surface.md, session 6).
         ContactSettings contact = settings_.contact;
         contact.held_force_fraction = 0.0;
@@ -372,12 +376,16 @@ void World::respond(double dt) {
 }
 
 void World::correct_in_implicit_solve(double dt) {
-  if (!settings_.contact.implicit_correction || settings_.contact.method != ContactMethod::contact_surface ||
-      contacts_.empty()) {
+  if (settings_.contact.implicit_correction == ImplicitCorrection::off ||
+      settings_.contact.method != ContactMethod::contact_surface) {
     return;
   }
-  implicit_correction_.correct(body_view_, contacts_, saved_positions_, saved_velocities_, settings_.gravity, dt,
-                               report_);
+  if (contacts_.empty()) {
+    implicit_correction_.clear();  // no body re-solved this step
+    return;
+  }
+  implicit_correction_.correct(body_view_, contacts_, held_in_step_, saved_positions_,
+                               saved_velocities_, settings_.gravity, dt, settings_.contact.implicit_correction, report_);
 }
 
 bool World::state_is_finite() const {

@@ -105,6 +105,9 @@ class World {
   ImplicitContactCorrection implicit_correction_;
 
   std::vector<Vec3> external_forces_;  ///< integrate scratch: gravity plus applied forces
+  /// The contact-surface response's held contacts whose forces acted in this step's integration
+  /// (ImplicitCorrection::stiff_partners: a body one of them pressed is left to the response).
+  std::vector<VertexContact> held_in_step_;
   std::vector<CollisionBody> collision_bodies_;
   CollisionFilter filter_;
   std::vector<VertexInTet> colliding_;
