@@ -14,11 +14,12 @@ bool resolvable(const Body* body) {
 }  // namespace
 
 void ImplicitContactCorrection::add_constraint(std::span<Body* const> bodies, int body, int vertex,
-                                               const Vec3& push, int partner) {
+                                               const Vec3& push, int partner, bool stiff) {
   const auto b = static_cast<size_t>(body);
   const auto v = static_cast<size_t>(vertex);
   if (!resolvable(bodies[b]) || bodies[b]->fixed[v] != 0) return;
   BodyConstraints& c = per_body_[b];
+  if (!stiff) c.free_partner = true;
   if (!c.active) {
     const size_t n = bodies[b]->positions.size();
     c.active = true;
@@ -32,12 +33,15 @@ void ImplicitContactCorrection::add_constraint(std::span<Body* const> bodies, in
 }
 
 void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+                                        std::span<const VertexContact> held_contacts,
                                         std::span<const std::vector<Vec3>> start_positions,
                                         std::span<const std::vector<Vec3>> start_velocities,
-                                        const Vec3& gravity, double dt, StepReport& report) {
+                                        const Vec3& gravity, double dt, ImplicitCorrection scope,
+                                        StepReport& report) {
   per_body_.resize(bodies.size());
-  for (auto& c : per_body_) c.active = false;
+  for (auto& c : per_body_) c.active = c.free_partner = false;
   corrected_bodies_ = 0;
+  if (scope == ImplicitCorrection::off) return;
 
   // Push directions: the contact triangle's outward normal at the displaced positions pushes the
   // colliding vertex out of the penetrated body, and the triangle's vertices the other way.
@@ -47,11 +51,34 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span
     Vec3 n = penetrated->mesh->triangle_normal(penetrated->positions, contact.contact_triangle);
     if (n.isZero()) n = contact.penetration_direction;
     if (n.isZero()) continue;
-    add_constraint(bodies, contact.body, contact.vertex, n, contact.penetrated_body);
     const auto& tri = penetrated->mesh->surface_triangles()[static_cast<size_t>(contact.contact_triangle)];
+    // Immovable partners (the response gives the soft side the whole displacement there).
+    const bool triangle_stiff = penetrated->is_immovable(tri[0]) && penetrated->is_immovable(tri[1]) &&
+                                penetrated->is_immovable(tri[2]);
+    const bool vertex_stiff = bodies[static_cast<size_t>(contact.body)]->is_immovable(contact.vertex);
+    add_constraint(bodies, contact.body, contact.vertex, n, contact.penetrated_body, triangle_stiff);
     for (int k = 0; k < 3; ++k) {
       if (contact.contact_barycentric[k] <= 0.0) continue;  // the search did not move it
-      add_constraint(bodies, contact.penetrated_body, tri[static_cast<size_t>(k)], -n, contact.body);
+      add_constraint(bodies, contact.penetrated_body, tri[static_cast<size_t>(k)], -n, contact.body, vertex_stiff);
+    }
+  }
+  // Scoped: a body with a free-free contact, detected or held, keeps the paper's response (its
+  // state is untouched).
+  if (scope == ImplicitCorrection::stiff_partners) {
+    for (const auto& contact : held_contacts) {
+      const Body* penetrated = bodies[static_cast<size_t>(contact.penetrated_body)];
+      const Body* colliding = bodies[static_cast<size_t>(contact.body)];
+      if (penetrated == nullptr || colliding == nullptr || contact.contact_triangle < 0) continue;
+      const auto& tri = penetrated->mesh->surface_triangles()[static_cast<size_t>(contact.contact_triangle)];
+      if (!(penetrated->is_immovable(tri[0]) && penetrated->is_immovable(tri[1]) && penetrated->is_immovable(tri[2]))) {
+        per_body_[static_cast<size_t>(contact.body)].free_partner = true;
+      }
+      if (!colliding->is_immovable(contact.vertex)) {
+        per_body_[static_cast<size_t>(contact.penetrated_body)].free_partner = true;
+      }
+    }
+    for (auto& c : per_body_) {
+      if (c.free_partner) c.active = false;
     }
   }
 
@@ -86,8 +113,19 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span
     ++corrected_bodies_;
   }
 
-  // Reactions on kinematic bodies: minus the constraint forces of the vertices touching them.
+  // Reactions on kinematic bodies: minus the constraint forces of the vertices touching them. A
+  // kinematic body that also touches a body left to the response keeps the response's reaction.
   for (auto& reaction : report.reactions) {
+    if (scope == ImplicitCorrection::stiff_partners) {
+      bool touches_unsolved = false;
+      for (const auto& contact : contacts) {
+        const int other = contact.body == reaction.body            ? contact.penetrated_body
+                          : contact.penetrated_body == reaction.body ? contact.body
+                                                                     : -1;
+        if (other >= 0 && !per_body_[static_cast<size_t>(other)].active) touches_unsolved = true;
+      }
+      if (touches_unsolved) continue;
+    }
     const Body& k = *bodies[static_cast<size_t>(reaction.body)];
     reaction.force.setZero();
     reaction.torque.setZero();
