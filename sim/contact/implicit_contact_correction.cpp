@@ -32,7 +32,8 @@ void ImplicitContactCorrection::add_constraint(std::span<Body* const> bodies, in
   if (c.partner[v] < 0) c.partner[v] = partner;
 }
 
-void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+void ImplicitContactCorrection::correct(std::span<Body* const> bodies,
+                                        std::span<const VertexContact> contacts,
                                         std::span<const VertexContact> held_contacts,
                                         std::span<const std::vector<Vec3>> start_positions,
                                         std::span<const std::vector<Vec3>> start_velocities,
@@ -59,7 +60,8 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span
     add_constraint(bodies, contact.body, contact.vertex, n, contact.penetrated_body, triangle_stiff);
     for (int k = 0; k < 3; ++k) {
       if (contact.contact_barycentric[k] <= 0.0) continue;  // the search did not move it
-      add_constraint(bodies, contact.penetrated_body, tri[static_cast<size_t>(k)], -n, contact.body, vertex_stiff);
+      add_constraint(bodies, contact.penetrated_body, tri[static_cast<size_t>(k)], -n, contact.body,
+                     vertex_stiff);
     }
   }
   // Scoped: a body with a free-free contact, detected or held, keeps the paper's response (its
@@ -70,7 +72,8 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span
       const Body* colliding = bodies[static_cast<size_t>(contact.body)];
       if (penetrated == nullptr || colliding == nullptr || contact.contact_triangle < 0) continue;
       const auto& tri = penetrated->mesh->surface_triangles()[static_cast<size_t>(contact.contact_triangle)];
-      if (!(penetrated->is_immovable(tri[0]) && penetrated->is_immovable(tri[1]) && penetrated->is_immovable(tri[2]))) {
+      if (!(penetrated->is_immovable(tri[0]) && penetrated->is_immovable(tri[1]) &&
+            penetrated->is_immovable(tri[2]))) {
         per_body_[static_cast<size_t>(contact.body)].free_partner = true;
       }
       if (!colliding->is_immovable(contact.vertex)) {
@@ -119,7 +122,7 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies, std::span
     if (scope == ImplicitCorrection::stiff_partners) {
       bool touches_unsolved = false;
       for (const auto& contact : contacts) {
-        const int other = contact.body == reaction.body            ? contact.penetrated_body
+        const int other = contact.body == reaction.body              ? contact.penetrated_body
                           : contact.penetrated_body == reaction.body ? contact.body
                                                                      : -1;
         if (other >= 0 && !per_body_[static_cast<size_t>(other)].active) touches_unsolved = true;

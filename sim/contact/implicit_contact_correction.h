@@ -41,7 +41,8 @@ class ImplicitContactCorrection {
   /// contact). Replaces the report's reaction on a kinematic body that touches only re-solved bodies
   /// by minus the constraint forces of the vertices touching it.
   void correct(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
-               std::span<const VertexContact> held_contacts, std::span<const std::vector<Vec3>> start_positions,
+               std::span<const VertexContact> held_contacts,
+               std::span<const std::vector<Vec3>> start_positions,
                std::span<const std::vector<Vec3>> start_velocities, const Vec3& gravity, double dt,
                ImplicitCorrection scope, StepReport& report);
   /// Constraint forces (N) per vertex of body slot `body` from the last correction; empty if the
@@ -58,13 +59,13 @@ class ImplicitContactCorrection {
  private:
   /// Per body slot: the constraints gathered this step and the solve's output.
   struct BodyConstraints {
-    bool active = false;                ///< has at least one constrained vertex this step
-    bool free_partner = false;          ///< touches a movable vertex of another free body
-    std::vector<Vec3> normal;           ///< sum of oriented unit normals, then normalised (0: free)
-    std::vector<int> partner;           ///< per vertex: body slot of its first contact partner, -1
+    bool active = false;                  ///< has at least one constrained vertex this step
+    bool free_partner = false;            ///< touches a movable vertex of another free body
+    std::vector<Vec3> normal;             ///< sum of oriented unit normals, then normalised (0: free)
+    std::vector<int> partner;             ///< per vertex: body slot of its first contact partner, -1
     std::vector<double> normal_velocity;  ///< m/s, prescribed v_{n+1} . n
-    std::vector<Vec3> force;            ///< N, constraint forces of the solve
-    std::vector<Vec3> external;         ///< N, gravity plus applied forces
+    std::vector<Vec3> force;              ///< N, constraint forces of the solve
+    std::vector<Vec3> external;           ///< N, gravity plus applied forces
   };
   /// Adds a push direction to a body's vertex (ignored for bodies that are not re-solved).
   /// `stiff`: the partner cannot move (kinematic, sleeping or fixed).

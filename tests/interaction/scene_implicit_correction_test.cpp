@@ -19,10 +19,11 @@ nlohmann::json probe_coarse_json() {
 
 TEST(SceneFormat, ContactImplicitCorrectionReachesTheWorld) {
   nlohmann::json j = probe_coarse_json();
-  EXPECT_EQ(parse_scene(j, "probe_coarse.json", ".").world.contact.implicit_correction, ImplicitCorrection::off);
+  EXPECT_EQ(parse_scene(j, "probe_coarse.json", ".").world.contact.implicit_correction,
+            ImplicitCorrection::off);
   const std::pair<nlohmann::json, ImplicitCorrection> cases[] = {
-      {"off", ImplicitCorrection::off},   {"stiff_partners", ImplicitCorrection::stiff_partners},
-      {"all", ImplicitCorrection::all},   {true, ImplicitCorrection::all},
+      {"off", ImplicitCorrection::off}, {"stiff_partners", ImplicitCorrection::stiff_partners},
+      {"all", ImplicitCorrection::all}, {true, ImplicitCorrection::all},
       {false, ImplicitCorrection::off},
   };
   for (const auto& [value, expected] : cases) {
