@@ -220,7 +220,15 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
   { StageScope s(profiler, StepStage::integrate); integrate(dt); }
   { StageScope s(profiler, StepStage::detect); detect(); }
   { StageScope s(profiler, StepStage::depth); compute_penetration_depth(); }
-  { StageScope s(profiler, StepStage::respond); respond(dt); }
+  {  // the opt-in correction is timed with the response it completes
+    StageScope s(profiler, StepStage::respond);
+    if (settings_.contact.implicit_correction == ImplicitCorrection::stiff_partners) {
+      const auto held = contact_surface_->held_contacts();  // before respond replaces them
+      held_in_step_.assign(held.begin(), held.end());
+    }
+    respond(dt);
+    correct_in_implicit_solve(dt);
+  }
   { StageScope s(profiler, StepStage::report); report(); }
 
   if (!report_.all_finite) {
@@ -347,6 +355,13 @@ void World::respond(double dt) {
   if (contacts_.empty() && !held) return;
   switch (settings_.contact.method) {
     case ContactMethod::contact_surface:
+      if (settings_.contact.implicit_correction == ImplicitCorrection::all) {
+        // The correction's constraints hold the dent: no held forces (docs/contact-surface.md, session 6).
+        ContactSettings contact = settings_.contact;
+        contact.held_force_fraction = 0.0;
+        contact_surface_->respond(body_view_, contacts_, dt, contact, report_);
+        break;
+      }
       contact_surface_->respond(body_view_, contacts_, dt, settings_.contact, report_);
       break;
     case ContactMethod::penalty:
@@ -358,6 +373,19 @@ void World::respond(double dt) {
       }
       break;
   }
+}
+
+void World::correct_in_implicit_solve(double dt) {
+  if (settings_.contact.implicit_correction == ImplicitCorrection::off ||
+      settings_.contact.method != ContactMethod::contact_surface) {
+    return;
+  }
+  if (contacts_.empty()) {
+    implicit_correction_.clear();  // no body re-solved this step
+    return;
+  }
+  implicit_correction_.correct(body_view_, contacts_, held_in_step_, saved_positions_, saved_velocities_,
+                               settings_.gravity, dt, settings_.contact.implicit_correction, report_);
 }
 
 bool World::state_is_finite() const {

@@ -13,6 +13,7 @@
 #include "sim/collision/spatial_hash.h"
 #include "sim/contact/contact_response.h"
 #include "sim/contact/contact_settings.h"
+#include "sim/contact/implicit_contact_correction.h"
 #include "sim/sleep/sleep_settings.h"
 #include "sim/step_report.h"
 
@@ -72,6 +73,9 @@ class World {
   const StepReport& last_report() const { return report_; }
   /// Colliding vertices with depth and contact triangle found in the last step (before response).
   const std::vector<VertexContact>& contacts() const { return contacts_; }
+  /// The opt-in contact correction inside the implicit solve (ContactSettings::implicit_correction):
+  /// its constraint forces of the last step.
+  const ImplicitContactCorrection& implicit_contact_correction() const { return implicit_correction_; }
 
  private:
   // The stages of step(), in order.
@@ -79,6 +83,8 @@ class World {
   void detect();
   void compute_penetration_depth();
   void respond(double dt);
+  /// Opt-in, after respond: re-solves contact bodies' implicit steps with the contact surface prescribed.
+  void correct_in_implicit_solve(double dt);
   void report();
 
   void rebuild_body_view();
@@ -96,8 +102,12 @@ class World {
   PenetrationDepthSolver penetration_depth_;
   std::unique_ptr<ContactResponse> contact_surface_;
   std::unique_ptr<ContactResponse> penalty_;
+  ImplicitContactCorrection implicit_correction_;
 
   std::vector<Vec3> external_forces_;  ///< integrate scratch: gravity plus applied forces
+  /// The contact-surface response's held contacts whose forces acted in this step's integration
+  /// (ImplicitCorrection::stiff_partners: a body one of them pressed is left to the response).
+  std::vector<VertexContact> held_in_step_;
   std::vector<CollisionBody> collision_bodies_;
   CollisionFilter filter_;
   std::vector<VertexInTet> colliding_;

@@ -141,7 +141,7 @@ BodyDef read_body(const JsonReader& j, const std::string& base_dir, size_t index
 
 ContactSettings read_contact(const JsonReader& j) {
   j.expect_keys({"method", "binary_search_iterations", "finishing_projection", "penalty_stiffness",
-                 "penalty_damping", "friction", "held_force_fraction"});
+                 "penalty_damping", "friction", "held_force_fraction", "implicit_correction"});
   ContactSettings c;
   if (auto m = j.find("method")) c.method = contact_method_from_string(m->choice({"surface", "penalty", "none"}));
   if (auto it = j.find("binary_search_iterations")) {
@@ -154,6 +154,17 @@ ContactSettings read_contact(const JsonReader& j) {
   c.penalty_stiffness = j.positive_number_or("penalty_stiffness", c.penalty_stiffness);
   c.penalty_damping = j.non_negative_number_or("penalty_damping", c.penalty_damping);
   c.friction = j.boolean_or("friction", c.friction);
+  if (auto it = j.find("implicit_correction")) {
+    // "off" | "stiff_partners" | "all"; the session-6 booleans stay valid (true: "all", as then).
+    if (it->is_string()) {
+      const std::string scope = it->choice({"off", "stiff_partners", "all"});
+      c.implicit_correction = scope == "off"              ? ImplicitCorrection::off
+                              : scope == "stiff_partners" ? ImplicitCorrection::stiff_partners
+                                                          : ImplicitCorrection::all;
+    } else {
+      c.implicit_correction = it->boolean() ? ImplicitCorrection::all : ImplicitCorrection::off;
+    }
+  }
   if (auto it = j.find("held_force_fraction")) {
     c.held_force_fraction = it->number();
     if (c.held_force_fraction < 0.0 || c.held_force_fraction > 1.0) {

@@ -12,6 +12,19 @@ enum class ContactMethod {
 /// "surface" / "penalty" / "none".
 const char* to_string(ContactMethod method);
 
+/// Which contacts the opt-in implicit correction constrains (ContactSettings::implicit_correction).
+enum class ImplicitCorrection {
+  off,             ///< the paper's response alone (the default)
+  /// Only bodies whose every contact vertex touches an infinitely stiff partner (a kinematic body,
+  /// or a contact triangle / colliding vertex that is fixed) are re-solved; contacts between two
+  /// free deformable bodies keep the paper's response and its held forces, as with off.
+  stiff_partners,
+  /// Every corotational-FEM body with contact vertices is re-solved, held forces off (session 6's
+  /// first pass; unstable between two free deformable bodies: the per-body solves break Newton's
+  /// third law).
+  all,
+};
+
 struct ContactSettings {
   ContactMethod method = ContactMethod::contact_surface;
   int binary_search_iterations = 4;   ///< paper: four suffice
@@ -65,6 +78,13 @@ struct ContactSettings {
   /// it passes the matrix's nu 0.499 and ratio 1e6 cases but fails four default-suite tests
   /// (scale invariance, Hertz slope, secant at extreme ratios, free block at rest) and makes dt 20 ms worse.
   bool cfl_limited_displacement = false;
+  /// Beyond the paper, opt-in (docs/contact-surface.md, "Contact inside the implicit solve (session
+  /// 6)"): after the response, corotational-FEM bodies with contact vertices re-solve their
+  /// implicit step from the start of the step with each contact vertex's normal position prescribed
+  /// at the contact surface the response found (Baraff & Witkin 1998 sec. 5.3), so the dent spreads
+  /// over the depth the implicit step reaches and positions and velocities come from one solve.
+  /// Reactions on kinematic bodies then come from the constraint forces. off: the paper's path.
+  ImplicitCorrection implicit_correction = ImplicitCorrection::off;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

@@ -778,8 +778,15 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // Linear extrapolation of the last two steps' dv (session 4): the probe scene's steps need 7.4
   // SSOR iterations on average instead of 8.0 from the last dv alone. A start worse than zero is
   // still replaced by zero below; fixed vertices start (and stay) at zero.
+  // A constrained solve (a re-solve of this step with contact constraints) starts from the last
+  // solve's dv instead and keeps the history as it is.
+  const bool constrained = !in.constraint_normals.empty();
   for (size_t i = 0; i < n; ++i) {
     const Vec3 last = in.fixed[i] != 0 || !dv_[i].allFinite() ? Vec3::Zero() : dv_[i];
+    if (constrained) {
+      dv_[i] = last;
+      continue;
+    }
     dv_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(2.0 * last - dv_previous_[i]);
     dv_previous_[i] = last;
   }
@@ -843,6 +850,11 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     std::fill(dv_.begin(), dv_.end(), Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
     result.converged = false;
     result.solver_residual = std::numeric_limits<double>::quiet_NaN();
+  } else if (constrained) {
+    const CgOutcome o = solve_constrained(v, mass_scale, stiffness_scale, in);
+    result.solver_iterations = o.iterations;
+    result.solver_residual = o.residual;
+    result.converged = o.residual <= accuracy_.solver_tolerance;
   } else if (rhs_norm == 0.0) {
     std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
   } else {

@@ -169,6 +169,12 @@ class CorotationalFem final : public DeformationModel {
                          std::span<const double> masses, std::span<const char> fixed);
   /// CG with symmetric block Gauss-Seidel in Eisenstat's form (assembled K'; same inputs).
   CgOutcome solve_ssor(double residual, double rhs_norm, double stiffness_scale, std::span<const char> fixed);
+  /// Filtered CG (Baraff & Witkin 1998, sec. 5.3) for advance with in.constraint_normals: each
+  /// constrained vertex's dv . n is prescribed, the rest solved with block-Jacobi filtered by
+  /// S_i = I - n n^T; constraints that pull are released and the solve repeated (design note in
+  /// corotational_constrained_solve.cpp).
+  CgOutcome solve_constrained(std::span<const Vec3> v, double mass_scale, double stiffness_scale,
+                              const IntegrationInput& in);
   /// ya = K' a and yb = K' b from the assembled blocks in one pass over the rows (each result as
   /// apply_stiffness gives it, bit for bit).
   void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
@@ -240,6 +246,7 @@ class CorotationalFem final : public DeformationModel {
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
   std::vector<Vec3> dv_previous_;  ///< the dv of the step before the last
+  std::vector<Vec3> constraint_normal_;  ///< solve_constrained scratch: active unit normals (0: free)
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
   std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;

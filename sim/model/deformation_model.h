@@ -50,6 +50,15 @@ struct IntegrationInput {
   std::span<const char> fixed;            ///< 1 where a vertex is held in place
   std::span<const Vec3> external_forces;  ///< gravity plus applied forces (N), per vertex
   double dt = 1e-3;                       ///< step (s)
+  /// Optional normal constraints (Baraff & Witkin 1998, sec. 5.3; empty: none, the unconstrained
+  /// step). Per vertex a unit normal n (the direction a contact pushes it) along which the new
+  /// velocity is prescribed, v_{n+1} . n = constraint_normal_velocities[i] (m/s), or the zero vector
+  /// where the vertex is free. Models that cannot constrain their solve ignore it.
+  std::span<const Vec3> constraint_normals;
+  std::span<const double> constraint_normal_velocities;  ///< m/s, per vertex (read where n != 0)
+  /// Optional output (empty: not written): per vertex, the constraint force (N) along n the solve
+  /// applied over the step; a constraint that would pull (force . n < 0) is released.
+  std::span<Vec3> constraint_forces;
 };
 
 class DeformationModel {

@@ -3,6 +3,9 @@
 // up to 2 m/s, initial overlap up to 90% of the upper body's thickness, a sliver tet, 1 mg and
 // 1000 kg bodies, for both contact methods. Each case checks finiteness, energy against the work
 // put in, and bounded residual overlap (tests/sim/stability_harness.h; results in docs/stability.md).
+#include <cstdlib>
+#include <string>
+
 #include "sim/stability_harness.h"
 
 namespace pliant::stability {
@@ -77,6 +80,22 @@ std::vector<Case> full_matrix() {
       f.dt = 1e-5;
       f.sliver = true;
       cases.push_back(f);
+    }
+  }
+  // Opt-in (session 6): PLIANT_STABILITY_IMPLICIT_CORRECTION=1 (or "all") runs the contact-surface
+  // cases with ContactSettings::implicit_correction on for every body, =2 (or "stiff_partners") only
+  // where the partner is immovable (docs/contact-surface.md, "Contact inside the implicit solve").
+  if (const char* env = std::getenv("PLIANT_STABILITY_IMPLICIT_CORRECTION"); env != nullptr) {
+    const std::string name = env;
+    const ImplicitCorrection scope = name == "1" || name == "all"                ? ImplicitCorrection::all
+                                     : name == "2" || name == "stiff_partners" ? ImplicitCorrection::stiff_partners
+                                                                                : ImplicitCorrection::off;
+    for (Case& c : cases) {
+      if (c.method != ContactMethod::contact_surface || scope == ImplicitCorrection::off) continue;
+      c.contact_tweak = [tweak = c.contact_tweak, scope](ContactSettings& s) {
+        if (tweak) tweak(s);
+        s.implicit_correction = scope;
+      };
     }
   }
   return cases;

@@ -1,0 +1,79 @@
+// Contact inside the implicit solve (beyond the paper, opt-in: ContactSettings::implicit_correction;
+// docs/contact-surface.md "Contact inside the implicit solve (session 6)"). After the contact-surface
+// response has found the contact surface (stages 3-5, the paper's pressure split untouched), every
+// corotational-FEM body with contact vertices re-solves its implicit step from the start-of-step
+// state with each contact vertex's normal position prescribed there, (x_{n+1} - x_target) . n = 0,
+// tangential components free (Baraff & Witkin 1998 sec. 5.3, filtered CG:
+// sim/model/corotational_constrained_solve.cpp). The dent then spreads over the depth the implicit
+// step reaches, and x_{n+1} = x_n + h v_{n+1} come from one solve: no one-layer dent is stored
+// (docs/stability.md, M1). Constrained vertices: each colliding vertex (normal: its contact
+// triangle's outward normal at the displaced positions) and each vertex of its contact triangle
+// (the opposite normal); a vertex in several contacts takes the normalised sum. Explicit-model,
+// kinematic and sleeping bodies and fixed vertices keep what the response gave them.
+// Scope (ContactSettings::implicit_correction): `all` re-solves every such body (held forces off,
+// World::respond); `stiff_partners` re-solves only a body whose every contact partner is immovable
+// (a kinematic or sleeping body, or fixed vertices: the whole colliding vertex, or all three
+// vertices of the contact triangle), in this step's contacts or in the held contacts whose forces
+// acted in its integration. A body with a contact between two free deformable bodies keeps the
+// paper's response and its held forces: two separate re-solves cannot keep their constraint forces
+// equal and opposite (docs). The re-solve does not apply a body's held forces again (its
+// constraints hold the dent); the integration still takes them, as with the correction off
+// (skipping them there for bodies re-solved in the last step was measured and rejected: docs).
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "sim/body.h"
+#include "sim/collision/contact_types.h"
+#include "sim/contact/contact_settings.h"
+#include "sim/step_report.h"
+
+namespace pliant {
+
+class ImplicitContactCorrection {
+ public:
+  /// Re-solves the step of the corotational-FEM bodies with contact vertices in `contacts` that
+  /// `scope` admits, from `start_positions` / `start_velocities` (per body slot, the state before
+  /// the step), under gravity (m/s^2) and the bodies' applied forces (held contact forces are not
+  /// applied again: the constraints hold the dent), over dt (s). `held_contacts`: the contacts whose
+  /// held forces acted in the step's integration (stiff_partners: a pair in them counts as a
+  /// contact). Replaces the report's reaction on a kinematic body that touches only re-solved bodies
+  /// by minus the constraint forces of the vertices touching it.
+  void correct(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
+               std::span<const VertexContact> held_contacts,
+               std::span<const std::vector<Vec3>> start_positions,
+               std::span<const std::vector<Vec3>> start_velocities, const Vec3& gravity, double dt,
+               ImplicitCorrection scope, StepReport& report);
+  /// Constraint forces (N) per vertex of body slot `body` from the last correction; empty if the
+  /// body was not re-solved in it.
+  std::span<const Vec3> constraint_forces(int body) const;
+  /// Forgets the last correction (a step in which no body was re-solved).
+  void clear() {
+    for (auto& c : per_body_) c.active = false;
+    corrected_bodies_ = 0;
+  }
+  /// Bodies re-solved by the last correction.
+  int corrected_bodies() const { return corrected_bodies_; }
+
+ private:
+  /// Per body slot: the constraints gathered this step and the solve's output.
+  struct BodyConstraints {
+    bool active = false;                  ///< has at least one constrained vertex this step
+    bool free_partner = false;            ///< touches a movable vertex of another free body
+    std::vector<Vec3> normal;             ///< sum of oriented unit normals, then normalised (0: free)
+    std::vector<int> partner;             ///< per vertex: body slot of its first contact partner, -1
+    std::vector<double> normal_velocity;  ///< m/s, prescribed v_{n+1} . n
+    std::vector<Vec3> force;              ///< N, constraint forces of the solve
+    std::vector<Vec3> external;           ///< N, gravity plus applied forces
+  };
+  /// Adds a push direction to a body's vertex (ignored for bodies that are not re-solved).
+  /// `stiff`: the partner cannot move (kinematic, sleeping or fixed).
+  void add_constraint(std::span<Body* const> bodies, int body, int vertex, const Vec3& push, int partner,
+                      bool stiff);
+
+  std::vector<BodyConstraints> per_body_;
+  int corrected_bodies_ = 0;
+};
+
+}  // namespace pliant
