@@ -26,6 +26,10 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
     // Walk mode does not measure the surface's motion (no refit unless a query needs the BVH):
     // normals are keyed on the call (top bit set: never equal to a hierarchy's pose epoch).
     if (options_.surface_query == SurfaceQueryMethod::tet_walk) s.pose_key = call_ | (std::uint64_t{1} << 63);
+    // With edges walked, the walks' face normals are reused within this call (a border point's
+    // edges and ray start in one tet; the positions change between calls). Rays alone rarely enter
+    // a tet twice: there the cache cost more than it saved, so they walk without it.
+    if (options_.surface_query == SurfaceQueryMethod::tet_walk) s.planes.new_pose(cb.mesh->tet_count());
   }
   if (need_bvh) ensure_bvh(s);
   return s;
@@ -58,7 +62,7 @@ void PenetrationDepthSolver::walk_fan(Surface& surface, const VertexInTet& c, co
   for (size_t e = 0; e < fan_origins_.size(); ++e) {
     int steps = 0;
     const bool hit = walk_edge_hit(*surface.mesh, surface.x, c.tet, p, fan_origins_[e], options_.tet_walk_max_steps,
-                                   fan_hits_[e], &steps);
+                                   fan_hits_[e], &steps, &surface.planes);
     stats_.walk_tets += steps;
     if (hit) {
       fan_found_[e] = 1;
@@ -372,7 +376,8 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       SurfacePoint h;
       int steps = 0;
       const bool hit = walk_ray_hit(*surface.mesh, surface.x, r.tet, p, r.penetration_direction,
-                                    options_.tet_walk_max_steps, h, &steps);
+                                    options_.tet_walk_max_steps, h, &steps,
+                                    walk_edges ? &surface.planes : nullptr);
       stats_.walk_tets += steps;
       if (hit) {
         ++stats_.walked_rays;

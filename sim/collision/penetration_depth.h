@@ -23,6 +23,7 @@
 
 #include "sim/collision/contact_types.h"
 #include "sim/collision/surface_bvh.h"
+#include "sim/collision/tet_walk.h"
 
 namespace pliant {
 
@@ -106,6 +107,7 @@ class PenetrationDepthSolver {
     std::vector<std::uint64_t> face_epoch;    ///< per surface triangle: bvh.pose_epoch() of face_cross
     std::uint64_t built_in_call = 0;  ///< call counter value when last brought to this call's positions
     int refits = 0;                   ///< full refits since the last build
+    TetFacePlanes planes;             ///< tet_walk: face normals of the tets walked in this call
   };
 
   /// The penetrated body's surface at this call; its hierarchy brought up to date if `need_bvh`.

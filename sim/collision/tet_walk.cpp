@@ -7,8 +7,57 @@
 
 namespace pliant {
 
-TetWalkResult walk_to_surface(const TetMesh& mesh, std::span<const Vec3> x, int start, const Vec3& a, const Vec3& d,
-                              double s_max, int max_steps, TetWalkExit& exit) {
+namespace {
+
+// Face normals and the usable-volume test of one tet at positions x (the walk's per-visit arithmetic).
+[[gnu::always_inline]] inline void face_planes(const TetMesh& mesh, std::span<const Vec3> x, int tet,
+                                               TetFacePlanes::Tet& out) {
+  const TetIndices& v = mesh.tets()[static_cast<size_t>(tet)];
+  const Vec3* c[4];
+  for (int k = 0; k < 4; ++k) c[k] = &x[static_cast<size_t>(v[static_cast<size_t>(k)])];
+  for (int k = 0; k < 4; ++k) {
+    const auto& f = TetMesh::kTetFaceCorners[k];
+    const Vec3& xi = *c[f[0]];
+    out.normal[static_cast<size_t>(k)] = (*c[f[1]] - xi).cross(*c[f[2]] - xi);  // outward (area x 2)
+  }
+  const double volume6 = out.normal[0].dot(*c[TetMesh::kTetFaceCorners[0][0]] - *c[0]);  // 6 x signed volume
+  // Flat or inverted tet (|6V| below 1e-12 of its first edge lengths' cube): the side functions
+  // do not bound it any more.
+  const double l2 =
+      std::max({(*c[1] - *c[0]).squaredNorm(), (*c[2] - *c[0]).squaredNorm(), (*c[3] - *c[0]).squaredNorm()});
+  out.usable = volume6 > 0.0 && volume6 * volume6 > 1e-24 * l2 * l2 * l2;
+}
+
+}  // namespace
+
+void TetFacePlanes::new_pose(int tet_count) {
+  const auto n = static_cast<size_t>(tet_count);
+  if (tets_.size() != n) {
+    tets_.assign(n, Tet{});
+    stamp_.assign(n, 0);
+    pose_ = 0;
+  }
+  if (++pose_ == 0) {  // wrapped: no stamp may equal a later pose by accident
+    std::fill(stamp_.begin(), stamp_.end(), 0u);
+    pose_ = 1;
+  }
+}
+
+const TetFacePlanes::Tet& TetFacePlanes::tet(const TetMesh& mesh, std::span<const Vec3> x, int tet) {
+  const auto i = static_cast<size_t>(tet);
+  if (stamp_[i] != pose_) {
+    face_planes(mesh, x, tet, tets_[i]);
+    stamp_[i] = pose_;
+  }
+  return tets_[i];
+}
+
+namespace {
+
+// The walk (design note in tet_walk.h); `planes_of(tet)` gives a tet's face normals at positions x.
+template <class PlanesOf>
+TetWalkResult walk(const TetMesh& mesh, std::span<const Vec3> x, int start, const Vec3& a, const Vec3& d,
+                   double s_max, int max_steps, TetWalkExit& exit, PlanesOf&& planes_of) {
   const auto& tets = mesh.tets();
   const auto& neighbors = mesh.tet_face_neighbors();
   const auto& face_triangles = mesh.tet_face_triangles();
@@ -16,31 +65,23 @@ TetWalkResult walk_to_surface(const TetMesh& mesh, std::span<const Vec3> x, int 
   int entry = -1;  // local face entered by (-1: the start tet)
   double s = 0.0;
   for (int step = 1; step <= max_steps; ++step) {
+    const TetFacePlanes::Tet& t = planes_of(tet);
+    if (!t.usable) return TetWalkResult::failed;
     const TetIndices& v = tets[static_cast<size_t>(tet)];
-    const Vec3* c[4];
-    for (int k = 0; k < 4; ++k) c[k] = &x[static_cast<size_t>(v[static_cast<size_t>(k)])];
     int best_face = -1;
     double best_s = std::numeric_limits<double>::infinity();
-    double volume6 = 0.0;
     for (int k = 0; k < 4; ++k) {
-      const auto& f = TetMesh::kTetFaceCorners[k];
-      const Vec3& xi = *c[f[0]];
-      const Vec3 n = (*c[f[1]] - xi).cross(*c[f[2]] - xi);  // outward (area x 2)
-      if (k == 0) volume6 = n.dot(xi - *c[0]);                // 6 x signed volume
       if (k == entry) continue;
+      const Vec3& n = t.normal[static_cast<size_t>(k)];
       const double nd = n.dot(d);
       if (!(nd > 0.0)) continue;
+      const Vec3& xi = x[static_cast<size_t>(v[static_cast<size_t>(TetMesh::kTetFaceCorners[k][0])])];
       const double sk = -n.dot(a - xi) / nd;
       if (sk < best_s) {
         best_s = sk;
         best_face = k;
       }
     }
-    // Flat or inverted tet (|6V| below 1e-12 of its first edge lengths' cube): the side functions
-    // do not bound it any more.
-    const double l2 = std::max({(*c[1] - *c[0]).squaredNorm(), (*c[2] - *c[0]).squaredNorm(),
-                                (*c[3] - *c[0]).squaredNorm()});
-    if (!(volume6 > 0.0) || !(volume6 * volume6 > 1e-24 * l2 * l2 * l2)) return TetWalkResult::failed;
     if (best_face < 0) return TetWalkResult::failed;
     s = std::max(s, best_s);
     if (s > s_max) return TetWalkResult::beyond_end;
@@ -60,6 +101,22 @@ TetWalkResult walk_to_surface(const TetMesh& mesh, std::span<const Vec3> x, int 
     tet = next;
   }
   return TetWalkResult::failed;
+}
+
+}  // namespace
+
+TetWalkResult walk_to_surface(const TetMesh& mesh, std::span<const Vec3> x, int start, const Vec3& a,
+                              const Vec3& d, double s_max, int max_steps, TetWalkExit& exit,
+                              TetFacePlanes* planes) {
+  if (planes != nullptr) {
+    return walk(mesh, x, start, a, d, s_max, max_steps, exit,
+                [&](int tet) -> const TetFacePlanes::Tet& { return planes->tet(mesh, x, tet); });
+  }
+  TetFacePlanes::Tet local;
+  return walk(mesh, x, start, a, d, s_max, max_steps, exit, [&](int tet) -> const TetFacePlanes::Tet& {
+    face_planes(mesh, x, tet, local);
+    return local;
+  });
 }
 
 bool surface_hit_near(const TetMesh& mesh, std::span<const Vec3> x, int triangle, const Vec3& origin,
@@ -101,19 +158,19 @@ bool surface_hit_near(const TetMesh& mesh, std::span<const Vec3> x, int triangle
 }
 
 bool walk_edge_hit(const TetMesh& mesh, std::span<const Vec3> x, int tet_of_p, const Vec3& p, const Vec3& q,
-                   int max_steps, SurfacePoint& hit, int* steps) {
+                   int max_steps, SurfacePoint& hit, int* steps, TetFacePlanes* planes) {
   TetWalkExit exit;
-  const TetWalkResult r = walk_to_surface(mesh, x, tet_of_p, p, q - p, 1.0, max_steps, exit);
+  const TetWalkResult r = walk_to_surface(mesh, x, tet_of_p, p, q - p, 1.0, max_steps, exit, planes);
   if (steps != nullptr) *steps = exit.steps;
   if (r != TetWalkResult::exited) return false;
   return surface_hit_near(mesh, x, exit.triangle, q, p - q, 1.0, hit);
 }
 
 bool walk_ray_hit(const TetMesh& mesh, std::span<const Vec3> x, int tet_of_p, const Vec3& p, const Vec3& r,
-                  int max_steps, SurfacePoint& hit, int* steps) {
+                  int max_steps, SurfacePoint& hit, int* steps, TetFacePlanes* planes) {
   TetWalkExit exit;
-  const TetWalkResult result =
-      walk_to_surface(mesh, x, tet_of_p, p, r, std::numeric_limits<double>::infinity(), max_steps, exit);
+  const TetWalkResult result = walk_to_surface(
+      mesh, x, tet_of_p, p, r, std::numeric_limits<double>::infinity(), max_steps, exit, planes);
   if (steps != nullptr) *steps = exit.steps;
   if (result != TetWalkResult::exited) return false;
   return surface_hit_near(mesh, x, exit.triangle, p, r, std::numeric_limits<double>::max(), hit);

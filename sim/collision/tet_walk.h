@@ -17,7 +17,10 @@
 // crossing nearest its start, the BVH's segment query the one nearest the segment's origin.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <span>
+#include <vector>
 
 #include "sim/collision/surface_bvh.h"
 #include "sim/math_types.h"
@@ -40,10 +43,35 @@ struct TetWalkExit {
   int steps = 0;      ///< tets visited
 };
 
+/// The four outward face normals of each tet a walk entered at one pose, computed the first time a
+/// walk enters the tet and reused by later walks of the same pose (a border point's edges and its
+/// contact ray all start in its stage-1 tet). Same values as computing them per visit, so a walk
+/// with the cache is bit for bit a walk without it.
+class TetFacePlanes {
+ public:
+  /// Forgets every tet's normals (the positions changed) and sizes the cache for `tet_count` tets.
+  void new_pose(int tet_count);
+
+  /// Tet `tet`'s face normals (TetMesh::kTetFaceCorners order, outward, twice the face area) and
+  /// whether its volume is clearly positive, computed at positions x if not yet in this pose.
+  struct Tet {
+    std::array<Vec3, 4> normal;  ///< outward normal of the face opposite local vertex k (m^2, x 2)
+    bool usable = false;         ///< signed volume clearly positive (else the walk fails there)
+  };
+  const Tet& tet(const TetMesh& mesh, std::span<const Vec3> x, int tet);
+
+ private:
+  std::vector<Tet> tets_;
+  std::vector<std::uint32_t> stamp_;  ///< per tet: pose_ when tets_ was filled
+  std::uint32_t pose_ = 0;
+};
+
 /// Walks a + s d, s in [0, s_max], from tet `start` (which should contain a, up to rounding) to the
-/// boundary face through which it leaves the body with positions x.
-TetWalkResult walk_to_surface(const TetMesh& mesh, std::span<const Vec3> x, int start, const Vec3& a, const Vec3& d,
-                              double s_max, int max_steps, TetWalkExit& exit);
+/// boundary face through which it leaves the body with positions x. With `planes` (brought to this
+/// pose by the caller) the tets' face normals are reused across walks; the answer is the same.
+TetWalkResult walk_to_surface(const TetMesh& mesh, std::span<const Vec3> x, int start, const Vec3& a,
+                              const Vec3& d, double s_max, int max_steps, TetWalkExit& exit,
+                              TetFacePlanes* planes = nullptr);
 
 /// The crossing of surface triangle `triangle` (or, near its border, of the triangles sharing a
 /// corner with it) by origin + t dir, t in [0, t_max], as SurfaceBvh::first_ray_hit reports it
@@ -55,11 +83,11 @@ bool surface_hit_near(const TetMesh& mesh, std::span<const Vec3> x, int triangle
 /// surface, found by walking from p, reported as SurfaceBvh::first_segment_hits reports the segment
 /// q -> p (origin q, t in [0, 1]). False: the walk failed or found no crossing (use the BVH).
 bool walk_edge_hit(const TetMesh& mesh, std::span<const Vec3> x, int tet_of_p, const Vec3& p, const Vec3& q,
-                   int max_steps, SurfacePoint& hit, int* steps = nullptr);
+                   int max_steps, SurfacePoint& hit, int* steps = nullptr, TetFacePlanes* planes = nullptr);
 
 /// The first surface triangle hit by p + t r, t >= 0 (p inside tet `tet_of_p`), as
 /// SurfaceBvh::first_ray_hit reports it. False: the walk failed (use the BVH).
 bool walk_ray_hit(const TetMesh& mesh, std::span<const Vec3> x, int tet_of_p, const Vec3& p, const Vec3& r,
-                  int max_steps, SurfacePoint& hit, int* steps = nullptr);
+                  int max_steps, SurfacePoint& hit, int* steps = nullptr, TetFacePlanes* planes = nullptr);
 
 }  // namespace pliant

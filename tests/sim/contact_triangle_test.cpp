@@ -18,6 +18,7 @@
 #include "sim/collision/spatial_hash.h"
 #include "sim/collision/triangle_queries.h"
 #include "sim/mesh/box_mesh.h"
+#include "support/folded_bar.h"
 
 namespace pliant {
 namespace {
@@ -384,16 +385,10 @@ TEST(ContactTriangle, MissedRayFallsBackToNearestTriangle) {
 
 TEST(ContactTriangle, SelfCollisionContactsAvoidTheVertexOwnTriangles) {
   // A bar folded onto itself: contacts on its own surface, never on a triangle holding the vertex.
-  const auto mesh = make_box_mesh({Vec3(1.0, 0.3, 0.1), 20, 6, 2});
-  std::vector<Vec3> x;
-  for (const Vec3& p : mesh->rest_positions()) {
-    const double phi = 0.97 * std::numbers::pi * std::clamp(p.x() / 0.15, 0.0, 1.0);
-    x.push_back(Eigen::AngleAxisd(phi, Vec3::UnitZ()) * p + Vec3(0.0, 0.0, 0.03 * std::clamp(p.x() / 0.15, 0.0, 1.0)));
-  }
-  std::vector<CollisionBody> bodies(1);
-  bodies[0].mesh = mesh.get();
-  bodies[0].positions = x;
-  bodies[0].self_collision = true;
+  const FoldedBar bar;
+  const auto& mesh = bar.mesh;
+  const auto& x = bar.x;
+  const std::vector<CollisionBody> bodies = bar.bodies();
   SpatialHash hash;
   PenetrationDepthSolver solver;
   std::vector<VertexInTet> colliding;

@@ -4,10 +4,13 @@
 // (through tet edges and vertices). Where a segment crosses the surface once, the walk reports the
 // BVH's hit (triangle and point to 1e-12); where it crosses more than once, the crossing nearest its
 // start; rays always the BVH's first hit. Failed walks (the caller's fallbacks) are counted and bounded.
+// Walks with the per-pose face-plane cache (TetFacePlanes) are bit for bit the walks without it, and a
+// pose change without new_pose() is seen (the check is sensitive to stale normals).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -203,6 +206,74 @@ TEST(TetWalk, GridLinesThroughEdgesAndVertices) {
   Body box{make_box_mesh({Vec3(1.0, 1.0, 1.0), 4, 4, 4}), {}};
   box.x = box.mesh->rest_positions();
   report("aligned box", check_body(box, 11, 800, true), 800);
+}
+
+// Walks from random points of random tets along random directions (segments of 0.3-3 mean edges
+// and rays), each with and without the face-plane cache; returns how many walks differed in any
+// of result, exit triangle, tet, s (bitwise) and steps.
+int cache_differences(const Body& b, TetFacePlanes& planes, unsigned seed, int samples) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const double h = b.mesh->mean_edge_length();
+  int differ = 0;
+  for (int i = 0; i < samples; ++i) {
+    // Several walks per start tet, as a border point's edges and ray start in one tet.
+    const int tet = std::uniform_int_distribution<int>(0, b.mesh->tet_count() - 1)(rng);
+    const auto& v = b.mesh->tets()[static_cast<size_t>(tet)];
+    Vec3 p = Vec3::Zero();
+    double w[4], sum = 0.0;
+    for (double& wk : w) sum += (wk = -std::log(1.0 - u01(rng)));
+    for (int k = 0; k < 4; ++k) p += (w[k] / sum) * b.x[static_cast<size_t>(v[static_cast<size_t>(k)])];
+    for (int j = 0; j < 5; ++j) {
+      const Vec3 d =
+          Vec3(gauss(rng), gauss(rng), gauss(rng)).normalized() * (j == 4 ? 1.0 : h * (0.3 + 2.7 * u01(rng)));
+      const double s_max = j == 4 ? std::numeric_limits<double>::infinity() : 1.0;
+      TetWalkExit plain, cached;
+      const TetWalkResult r0 = walk_to_surface(*b.mesh, b.x, tet, p, d, s_max, 1000, plain);
+      const TetWalkResult r1 = walk_to_surface(*b.mesh, b.x, tet, p, d, s_max, 1000, cached, &planes);
+      if (r0 != r1 || plain.triangle != cached.triangle || plain.tet != cached.tet || plain.s != cached.s ||
+          plain.steps != cached.steps) {
+        ++differ;
+      }
+    }
+  }
+  return differ;
+}
+
+TEST(TetWalk, FacePlanesCacheGivesTheSameWalksAndIsRenewedPerPose) {
+  for (Body b : {jittered_box(3), bent_bar()}) {
+    TetFacePlanes planes;
+    planes.new_pose(b.mesh->tet_count());
+    EXPECT_EQ(cache_differences(b, planes, 21, 600), 0);
+    // Reused across a second batch of walks in the same pose (most tets already cached).
+    EXPECT_EQ(cache_differences(b, planes, 22, 600), 0);
+    // A new pose: every vertex moved by up to 2% of an edge.
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const double h = 0.02 * b.mesh->mean_edge_length();
+    for (Vec3& xv : b.x) xv += h * Vec3(u(rng), u(rng), u(rng));
+    // Sensitivity check: the previous pose's normals do change walks (s differs in its last bits).
+    EXPECT_GT(cache_differences(b, planes, 22, 600), 0);
+    planes.new_pose(b.mesh->tet_count());
+    EXPECT_EQ(cache_differences(b, planes, 22, 600), 0);
+    EXPECT_EQ(cache_differences(b, planes, 23, 600), 0);
+  }
+  // An inverted tet fails with the cache too.
+  Body box{make_box_mesh({Vec3(1.0, 1.0, 1.0), 1, 1, 1}), {}};
+  box.x = box.mesh->rest_positions();
+  const auto& v = box.mesh->tets()[0];
+  const Vec3 p = 0.25 * (box.x[static_cast<size_t>(v[0])] + box.x[static_cast<size_t>(v[1])] +
+                         box.x[static_cast<size_t>(v[2])] + box.x[static_cast<size_t>(v[3])]);
+  const Vec3 centroid = (box.x[static_cast<size_t>(v[1])] + box.x[static_cast<size_t>(v[2])] +
+                         box.x[static_cast<size_t>(v[3])]) /
+                        3.0;
+  box.x[static_cast<size_t>(v[0])] = 2.0 * centroid - box.x[static_cast<size_t>(v[0])];
+  TetFacePlanes planes;
+  planes.new_pose(box.mesh->tet_count());
+  TetWalkExit exit;
+  EXPECT_EQ(walk_to_surface(*box.mesh, box.x, 0, p, Vec3(1, 0, 0), 10.0, 100, exit, &planes),
+            TetWalkResult::failed);
 }
 
 TEST(TetWalk, InvertedTetFailsInsteadOfAnsweringWrongly) {
