@@ -100,6 +100,7 @@ BENCHMARK(BM_ProbeRespond)
     ->Iterations(300)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ThreeCubesRespond)
+    ->Arg(static_cast<int>(Variant::surface))  // session 7: the library defaults (held forces on)
     ->Arg(static_cast<int>(Variant::surface_without_held_forces))
     ->Arg(static_cast<int>(Variant::penalty))
     ->Arg(static_cast<int>(Variant::surface_frozen_search))

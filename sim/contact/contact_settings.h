@@ -60,6 +60,15 @@ struct ContactSettings {
   /// searching vertex's move since the first evaluation changes one of its elements' deformation
   /// gradient by more than this (|d| |grad N|, dimensionless; a sliver's rotation turns fast).
   double linearised_search_strain = 1e-2;
+  /// Beyond the paper (session 7, docs/contact-surface.md "Speed (session 7)"): without held forces
+  /// (held_force_fraction 0: the final evaluation's forces are only reported), the final
+  /// evaluation at the contact surface takes f(x1) - K' (x - x1) too, for the bodies whose search
+  /// was linearised and whose moves since x1 (all region vertices, the projection's included) pass
+  /// linearised_search_strain; elsewhere, and always with held forces, it stays the exact query.
+  /// The step's positions and velocities are unchanged; later steps differ only through the
+  /// rotations the exact query would have remembered for search_rotation_tolerance's reuse.
+  /// false: the final evaluation is always exact (bit for bit).
+  bool linearised_final_evaluation = true;
   double penalty_stiffness = 2e3;     ///< k (N/m) of the penalty response
   double penalty_damping = 0.0;       ///< k_d (N s/m) on the normal relative velocity
   bool friction = true;               ///< Coulomb friction where materials have mu > 0

@@ -43,8 +43,11 @@ void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>
 // Linearised search (session 6, ContactSettings::linearised_search): `linearisation` = start
 // records, after the queries, each linearised group's positions and search forces (x1, f(x1));
 // = use evaluates such a group as f(x1) - K' (x - x1) (DeformationModel::stiffness_product_at)
-// instead of asking the query; a model without K' falls back to the query.
-enum class Linearisation { none, start, use };
+// instead of asking the query; a model without K' falls back to the query. = final (session 7,
+// ContactSettings::linearised_final_evaluation): the final evaluation of such a group takes
+// f(x1) - K' (x - x1) at its search entries with the moves of all its entries (the projection and
+// the secant step move the others too); the remaining entries ask the exact query.
+enum class Linearisation { none, start, use, final };
 
 // The linearised search's gate: every searching vertex of the group has |s| <= h / 2^(n+2). Its
 // moves after the first evaluation (at most 7/16 |s|) then stay below h / 2^(n+3), a quarter of
@@ -66,16 +69,17 @@ void gate_linearisation(DeformationRegion& region, int iterations, bool enabled)
   }
 }
 
-// f(x1) - K' (x - x1) over the group's search entries; false if the model has no K'.
-bool linearised_forces(const Body& body, DeformationRegion::BodyGroup& g, double strain_tolerance) {
+// f(x1) - K' (x - x1) over the group's search entries, with the moves of its first `moved`
+// entries (>= search_count; the others stayed at x1); false if the model has no K' or refuses.
+bool linearised_forces(const Body& body, DeformationRegion::BodyGroup& g, double strain_tolerance, size_t moved) {
   const size_t count = g.search_count;
-  g.moves.resize(count);
+  g.moves.resize(moved);
   g.stiffness_moves.resize(count);
-  for (size_t i = 0; i < count; ++i) {
+  for (size_t i = 0; i < moved; ++i) {
     g.moves[i] = body.positions[static_cast<size_t>(g.vertices[i])] - g.start_positions[i];
   }
-  const std::span<const int> rows(g.vertices.data(), count);
-  if (!body.model->stiffness_product_at(rows, g.moves, rows, g.stiffness_moves, strain_tolerance)) return false;
+  const std::span<const int> movers(g.vertices.data(), moved), rows(g.vertices.data(), count);
+  if (!body.model->stiffness_product_at(movers, g.moves, rows, g.stiffness_moves, strain_tolerance)) return false;
   for (size_t i = 0; i < count; ++i) g.forces[i] = g.start_forces[i] - g.stiffness_moves[i];
   return true;
 }
@@ -89,13 +93,20 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
     const size_t count = search_only ? g.search_count : g.vertices.size();
     if (count == 0) continue;
     Body& body = *bodies[static_cast<size_t>(g.body)];
-    const bool linear = linearisation == Linearisation::use && g.linearised && linearised_forces(body, g, strain_tolerance);
-    for (int pass = 0; pass < 2 && !linear; ++pass) {  // frozen, then exact
+    size_t linear_count = 0;  // the leading entries taken from K' (the rest ask the query)
+    if (linearisation == Linearisation::use && g.linearised &&
+        linearised_forces(body, g, strain_tolerance, g.search_count)) {
+      linear_count = count;
+    } else if (linearisation == Linearisation::final && g.linearised &&
+               linearised_forces(body, g, strain_tolerance, g.vertices.size())) {
+      linear_count = g.search_count;
+    }
+    for (int pass = 0; pass < 2 && linear_count < count; ++pass) {  // frozen, then exact
       const bool frozen = pass == 0;
       if (frozen && frozen_iterations <= 0) continue;
       g.query_vertices.clear();
       g.query_entries.clear();
-      for (size_t i = 0; i < count; ++i) {
+      for (size_t i = linear_count; i < count; ++i) {
         const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
         const double limit = resolution * v.length;
         const bool small = frozen_iterations > 0 && v.displacement.squaredNorm() <= limit * limit;
@@ -116,9 +127,10 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       }
     }
     if (linearisation == Linearisation::start && g.linearised) {
-      g.start_positions.resize(g.search_count);
+      // Positions of every entry (the final evaluation's moves), forces of the search entries.
+      g.start_positions.resize(g.vertices.size());
       g.start_forces.assign(g.forces.begin(), g.forces.begin() + static_cast<std::ptrdiff_t>(g.search_count));
-      for (size_t i = 0; i < g.search_count; ++i) {
+      for (size_t i = 0; i < g.vertices.size(); ++i) {
         g.start_positions[i] = body.positions[static_cast<size_t>(g.vertices[i])];
       }
     }
@@ -431,7 +443,15 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Forces at the final contact surface, always exact (session 4: the frozen query's error is
   // multiplied by a stiff body's pre-stress, and these forces leave the stage as the held-force cap
   // and the reported elastic forces): pressure imbalance, held-force cap, each side's elastic force.
-  evaluate_pressures(bodies, region_, false, 0);
+  // Session 7: without held forces these forces are only reported (imbalance, elastic pair forces),
+  // and a linearised group's search entries take f(x1) - K' (x - x1) here too, under the search's
+  // gates (ContactSettings::linearised_final_evaluation; false: exact, bit for bit). With held
+  // forces they cap the next step's external force and stay exact: linearised there, the 1 mg
+  // sliver case gained 4.85x the work put in (docs/contact-surface.md "Speed (session 7)").
+  const bool linear_final =
+      linearised && settings.linearised_final_evaluation && !(settings.held_force_fraction > 0.0);
+  evaluate_pressures(bodies, region_, false, 0, 0.0, linear_final ? Linearisation::final : Linearisation::none,
+                     settings.linearised_search_strain);
   double imbalance_sum = 0.0;
   int imbalance_count = 0;
   for (const auto& v : vertices) {

@@ -274,6 +274,12 @@ class CorotationalFem final : public DeformationModel {
   /// The exact query's stress P of tet t at F: rotation extracted warm-started from rotations_ (left
   /// as it is) and remembered for nearby queries.
   Mat3 exact_query_stress(size_t t, const Mat3& F);
+  /// Fills the slots of the tets in query_pending_ (their F parked in query_forces_) with the exact
+  /// query's stress, extracting kRotationBatchLanes rotations per call (bit for bit the scalar's).
+  void exact_query_stresses_batched();
+  /// f at `vertices` from the current query's slots: -V P g_j summed over each vertex's tets.
+  void sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const;
+  std::vector<int> query_pending_;      ///< tets of the current query waiting for an exact extraction
   std::vector<Mat3> nearby_rotation_;   ///< per tet: last exactly extracted rotation
   std::vector<Mat3> nearby_key_;        ///< per tet: the F it was extracted from
   std::vector<char> nearby_cached_;     ///< per tet: 1 when filled

@@ -28,6 +28,12 @@
 //   the moved vertices give every needed block: K'_{jc} d_c from row j, K'_{cj} d_j = B_{jc}^T d_j
 //   for c > j. Rows that did not move themselves get only the transposed blocks, hence the
 //   contract: every asked row is in `moved` (with d = 0 if it stays).
+// - Batched extraction (session 7): the exact and nearby queries first give every touched tet its
+//   slot, then extract the rotations still needed kRotationBatchLanes at a time
+//   (extract_rotations_batch: each lane the scalar extraction's operations, bit for bit, the full
+//   pass's path since session 6), then sum per vertex. The warm starts (rotations_) are not
+//   written by a query, so the order of the extractions cannot change a result: the forces are
+//   the one-tet-at-a-time query's, bit for bit.
 #include <algorithm>
 #include <cstring>
 
@@ -91,13 +97,27 @@ std::pair<size_t, bool> CorotationalFem::local_query_slot(size_t t) {
 void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
                                          std::span<Vec3> f) {
   begin_local_query();
+  query_pending_.clear();
+  for (const int v : vertices) {
+    for (int t : mesh_->vertex_tets(v)) {
+      const auto ts = static_cast<size_t>(t);
+      const auto [slot, fresh] = local_query_slot(ts);
+      if (!fresh) continue;
+      query_forces_[slot] = deformation_gradient(x, t);  // F, until the extraction below
+      query_pending_.push_back(t);
+    }
+  }
+  exact_query_stresses_batched();
+  sum_query_stresses(vertices, f);
+}
+
+void CorotationalFem::sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const {
   for (size_t k = 0; k < vertices.size(); ++k) {
     const int v = vertices[k];
     Vec3 sum = Vec3::Zero();
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
-      const auto [slot, fresh] = local_query_slot(ts);
-      if (fresh) query_forces_[slot] = exact_query_stress(ts, deformation_gradient(x, t));
+      const auto slot = static_cast<size_t>(query_slot_[ts]);
       // -V P g_j per vertex-tet pair: the per-vertex query's expression, bit for bit (the held-force
       // floor test's jitter measure moved from 2.0 to 2.17 mm/s with the force-matrix form's round-off).
       const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
@@ -113,6 +133,33 @@ Mat3 CorotationalFem::exact_query_stress(size_t t, const Mat3& F) {
   const Mat3 R = q.toRotationMatrix();
   remember_rotation(t, F, R);
   return first_piola(F, R);
+}
+
+void CorotationalFem::exact_query_stresses_batched() {
+  constexpr auto L = static_cast<size_t>(kRotationBatchLanes);
+  const size_t count = query_pending_.size();
+  size_t i = 0;
+  for (; i + L <= count; i += L) {
+    Mat3 F[L];
+    Quat q[L];
+    for (size_t l = 0; l < L; ++l) {
+      const auto t = static_cast<size_t>(query_pending_[i + l]);
+      F[l] = query_forces_[static_cast<size_t>(query_slot_[t])];
+      q[l] = rotations_[t];  // warm start; the stored rotation is left as it is
+    }
+    extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);
+    for (size_t l = 0; l < L; ++l) {
+      const auto t = static_cast<size_t>(query_pending_[i + l]);
+      const Mat3 R = q[l].toRotationMatrix();
+      remember_rotation(t, F[l], R);
+      query_forces_[static_cast<size_t>(query_slot_[t])] = first_piola(F[l], R);
+    }
+  }
+  for (; i < count; ++i) {  // the last few one at a time
+    const auto t = static_cast<size_t>(query_pending_[i]);
+    Mat3& slot = query_forces_[static_cast<size_t>(query_slot_[t])];
+    slot = exact_query_stress(t, Mat3(slot));
+  }
 }
 
 Mat3 CorotationalFem::warped_stiffness_stress(const Mat3& F, const Mat3& R) const {
@@ -141,25 +188,25 @@ void CorotationalFem::internal_forces_at_nearby_rotations(std::span<const Vec3> 
     return;
   }
   begin_local_query();
+  query_pending_.clear();
   const double tolerance_sq = rotation_tolerance * rotation_tolerance;
-  for (size_t k = 0; k < vertices.size(); ++k) {
-    const int v = vertices[k];
-    Vec3 sum = Vec3::Zero();
+  for (const int v : vertices) {
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
-      if (fresh) {
-        const Mat3 F = deformation_gradient(x, t);
-        const bool nearby = ts < nearby_cached_.size() && nearby_cached_[ts] != 0 &&
-                            (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
-        // Within the tolerance: the frozen query's stress with the remembered rotation.
-        query_forces_[slot] = nearby ? warped_stiffness_stress(F, nearby_rotation_[ts]) : exact_query_stress(ts, F);
-      }
-      const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
-      sum -= volume_[ts] * (query_forces_[slot] * g);
+      if (!fresh) continue;
+      const Mat3 F = deformation_gradient(x, t);
+      const bool nearby = ts < nearby_cached_.size() && nearby_cached_[ts] != 0 &&
+                          (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
+      // Within the tolerance: the frozen query's stress with the remembered rotation. Else F waits
+      // for the batched extraction (a tet's remembered rotation is looked up before any of this
+      // query's extractions, as in the one-at-a-time query: a tet is met once per query).
+      query_forces_[slot] = nearby ? warped_stiffness_stress(F, nearby_rotation_[ts]) : F;
+      if (!nearby) query_pending_.push_back(t);
     }
-    f[k] = sum;
   }
+  exact_query_stresses_batched();
+  sum_query_stresses(vertices, f);
 }
 
 Mat3 CorotationalFem::frozen_rotation(size_t t) {

@@ -73,9 +73,11 @@ struct Comparison {
 void frozen_search(ContactSettings& contact) { contact.frozen_rotation_search = true; }
 
 // Steps two identical worlds `steps` times with the exact query, then once more, world b with the
-// search `approximate` sets (default: the frozen-rotation query), and compares.
+// search `approximate` sets (default: the frozen-rotation query), world a with `reference`'s (if
+// given; else exact), and compares.
 Comparison compare_after(void (*build)(World&), int steps, bool probe,
-                         void (*approximate)(ContactSettings&) = frozen_search) {
+                         void (*approximate)(ContactSettings&) = frozen_search,
+                         void (*reference)(ContactSettings&) = nullptr) {
   World a, b;
   for (World* w : {&a, &b}) {
     w->settings().contact.finishing_projection = false;  // the paper's search alone
@@ -91,7 +93,10 @@ Comparison compare_after(void (*build)(World&), int steps, bool probe,
   const BodyId sphere = probe ? a.body_id(1) : BodyId{};
   Pose pose = probe ? a.body(sphere).pose : Pose{};
   for (int s = 0; s <= steps; ++s) {
-    if (s == steps) approximate(b.settings().contact);
+    if (s == steps) {
+      approximate(b.settings().contact);
+      if (reference != nullptr) reference(a.settings().contact);
+    }
     if (probe) {
       pose.translation.z() -= 1e-4;  // 0.1 m/s at dt 1 ms
       a.set_kinematic_pose(sphere, pose);
@@ -216,6 +221,56 @@ TEST(ContactLinearisedSearch, BlockOnBlockSurfaceWithinOneBisectionStepOfTheExac
 TEST(ContactLinearisedSearch, ProbeSurfaceIsTheExactSearchs) {
   for (int steps : {30, 100}) {  // nothing searches against an immovable probe: bit for bit
     const Comparison c = compare_after(add_probe, steps, true, linearised_search);
+    EXPECT_EQ(c.max_difference, 0.0) << steps;
+    EXPECT_EQ(c.elastic_difference, 0.0) << steps;
+  }
+}
+
+// Session 7: the final evaluation linearised too (ContactSettings::linearised_final_evaluation,
+// without held forces: its forces are only reported), against the same linearised search with the
+// exact final evaluation. The search is the same, so every position is bit for bit; the reported
+// elastic forces differ by the linearisation's error over the moves since the first evaluation:
+// the K' product's first-order law holds to 0.016 of the force change (CorotationalLocalQuery.
+// StiffnessProductIsTheExactForceChangeToFirstOrder's bound), and the moves since x1 (<= 7/16 of
+// |s| plus the secant step, within [0, 1] of |s|) change the force by at most the whole dent's,
+// under half the elastic force here (the dent is a fraction of the pre-stress): bound 0.016 / 2.
+void linearised_exact_final(ContactSettings& contact) {
+  contact.linearised_search = true;
+  contact.linearised_final_evaluation = false;
+}
+
+void linearised_final(ContactSettings& contact) {
+  contact.linearised_search = true;
+  contact.linearised_final_evaluation = true;
+}
+
+TEST(ContactLinearisedFinalEvaluation, SameStepAndElasticForcesWithinTheLinearisationBound) {
+  ASSERT_TRUE(ContactSettings{}.linearised_final_evaluation);
+  double largest = 0.0;
+  for (int steps : {20, 60, 200}) {  // landing, settling, resting
+    const Comparison c = compare_after(add_block_on_block, steps, false, linearised_final, linearised_exact_final);
+    EXPECT_EQ(c.max_difference, 0.0) << steps;  // only reported forces change
+    EXPECT_LE(c.elastic_difference, 0.008) << steps;
+    largest = std::max(largest, c.elastic_difference);
+  }
+  EXPECT_GT(largest, 0.0) << "the final evaluation was never linearised";
+}
+
+// With held forces the final forces cap the next step's external force: always exact, bit for bit.
+void held_linearised_final(ContactSettings& contact) {
+  linearised_final(contact);
+  contact.held_force_fraction = 1.0;
+}
+
+void held_linearised_exact_final(ContactSettings& contact) {
+  linearised_exact_final(contact);
+  contact.held_force_fraction = 1.0;
+}
+
+TEST(ContactLinearisedFinalEvaluation, ExactWithHeldForces) {
+  for (int steps : {20, 60}) {
+    const Comparison c =
+        compare_after(add_block_on_block, steps, false, held_linearised_final, held_linearised_exact_final);
     EXPECT_EQ(c.max_difference, 0.0) << steps;
     EXPECT_EQ(c.elastic_difference, 0.0) << steps;
   }
