@@ -522,11 +522,12 @@ struct SsorSweeps {
 #if defined(__SSE2__)
   /// Rows ahead of the backward sweep whose blocks it asks the cache for (session 7).
   static constexpr size_t kBackwardPrefetchRows = 8;
-  /// Asks for the cache lines of row k's blocks (a hint: no effect on any value).
+  /// Asks for every other cache line of row k's blocks (measured as fast as every line, with half
+  /// the prefetch instructions; a hint: no effect on any value).
   void prefetch_row(size_t k) const {
     const auto* line = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k]));
     const auto* end = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k + 1]));
-    for (; line < end; line += 64) _mm_prefetch(line, _MM_HINT_T0);
+    for (; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
   }
 #endif
 
