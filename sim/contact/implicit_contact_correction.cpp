@@ -144,6 +144,13 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies,
   }
 }
 
+const ContactSettings& ImplicitContactCorrection::response_settings(const ContactSettings& contact) {
+  if (contact.implicit_correction != ImplicitCorrection::all) return contact;
+  response_settings_ = contact;
+  response_settings_.held_force_fraction = 0.0;  // the constraints hold the dent (docs, session 6)
+  return response_settings_;
+}
+
 std::span<const Vec3> ImplicitContactCorrection::constraint_forces(int body) const {
   const auto b = static_cast<size_t>(body);
   if (b >= per_body_.size() || !per_body_[b].active) return {};

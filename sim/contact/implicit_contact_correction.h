@@ -55,6 +55,10 @@ class ImplicitContactCorrection {
   }
   /// Bodies re-solved by the last correction.
   int corrected_bodies() const { return corrected_bodies_; }
+  /// The settings the contact-surface response runs with under contact.implicit_correction: `contact`
+  /// itself, except that `all` turns held forces off (its constraints hold the dent); the copy then
+  /// lives in this object until the next call.
+  const ContactSettings& response_settings(const ContactSettings& contact);
 
  private:
   /// Per body slot: the constraints gathered this step and the solve's output.
@@ -74,6 +78,7 @@ class ImplicitContactCorrection {
 
   std::vector<BodyConstraints> per_body_;
   int corrected_bodies_ = 0;
+  ContactSettings response_settings_;  ///< response_settings' copy when it differs from the input
 };
 
 }  // namespace pliant
