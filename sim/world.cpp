@@ -380,7 +380,7 @@ void World::correct_in_implicit_solve(double dt) {
     return;
   }
   implicit_correction_.correct(body_view_, contacts_, held_in_step_, saved_positions_, saved_velocities_,
-                               settings_.gravity, dt, settings_.contact.implicit_correction, report_);
+                               settings_.gravity, dt, settings_.contact, report_);
 }
 
 bool World::state_is_finite() const {
