@@ -19,6 +19,9 @@
 // equal and opposite (docs). The re-solve does not apply a body's held forces again (its
 // constraints hold the dent); the integration still takes them, as with the correction off
 // (skipping them there for bodies re-solved in the last step was measured and rejected: docs).
+// `coupled` (session 7) is `all` with each contact between two free corotational-FEM bodies carried
+// by one normal force lambda >= 0, equal and opposite on the pair by construction, found by
+// projected CG over the paired bodies' re-solves (design note in the .cpp).
 #pragma once
 
 #include <array>
