@@ -355,14 +355,9 @@ void World::respond(double dt) {
   if (contacts_.empty() && !held) return;
   switch (settings_.contact.method) {
     case ContactMethod::contact_surface:
-      if (settings_.contact.implicit_correction == ImplicitCorrection::all) {
-        // The correction's constraints hold the dent: no held forces (docs/contact-surface.md, session 6).
-        ContactSettings contact = settings_.contact;
-        contact.held_force_fraction = 0.0;
-        contact_surface_->respond(body_view_, contacts_, dt, contact, report_);
-        break;
-      }
-      contact_surface_->respond(body_view_, contacts_, dt, settings_.contact, report_);
+      // The opt-in correction decides which held forces the response applies.
+      contact_surface_->respond(body_view_, contacts_, dt, implicit_correction_.response_settings(settings_.contact),
+                                report_);
       break;
     case ContactMethod::penalty:
       penalty_->respond(body_view_, contacts_, dt, settings_.contact, report_);
@@ -385,7 +380,7 @@ void World::correct_in_implicit_solve(double dt) {
     return;
   }
   implicit_correction_.correct(body_view_, contacts_, held_in_step_, saved_positions_, saved_velocities_,
-                               settings_.gravity, dt, settings_.contact.implicit_correction, report_);
+                               settings_.gravity, dt, settings_.contact, report_);
 }
 
 bool World::state_is_finite() const {

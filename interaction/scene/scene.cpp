@@ -155,12 +155,13 @@ ContactSettings read_contact(const JsonReader& j) {
   c.penalty_damping = j.non_negative_number_or("penalty_damping", c.penalty_damping);
   c.friction = j.boolean_or("friction", c.friction);
   if (auto it = j.find("implicit_correction")) {
-    // "off" | "stiff_partners" | "all"; the session-6 booleans stay valid (true: "all", as then).
+    // "off" | "stiff_partners" | "all" | "coupled"; the session-6 booleans stay valid (true: "all").
     if (it->is_string()) {
-      const std::string scope = it->choice({"off", "stiff_partners", "all"});
+      const std::string scope = it->choice({"off", "stiff_partners", "all", "coupled"});
       c.implicit_correction = scope == "off"              ? ImplicitCorrection::off
                               : scope == "stiff_partners" ? ImplicitCorrection::stiff_partners
-                                                          : ImplicitCorrection::all;
+                              : scope == "all"            ? ImplicitCorrection::all
+                                                          : ImplicitCorrection::coupled;
     } else {
       c.implicit_correction = it->boolean() ? ImplicitCorrection::all : ImplicitCorrection::off;
     }

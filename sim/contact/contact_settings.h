@@ -23,6 +23,12 @@ enum class ImplicitCorrection {
   /// first pass; unstable between two free deformable bodies: the per-body solves break Newton's
   /// third law).
   all,
+  /// As all against immovable partners; a contact between two free corotational-FEM bodies is
+  /// not prescribed per body but carried by a scalar normal force lambda >= 0 that acts +lambda n on
+  /// the colliding vertex and -w_k lambda n on its triangle's vertices (equal and opposite by
+  /// construction), found by projected CG on the gaps over the bodies' re-solves (session 7;
+  /// docs/contact-surface.md "Coupled"). Held forces off.
+  coupled,
 };
 
 struct ContactSettings {
@@ -94,6 +100,12 @@ struct ContactSettings {
   /// over the depth the implicit step reaches and positions and velocities come from one solve.
   /// Reactions on kinematic bodies then come from the constraint forces. off: the paper's path.
   ImplicitCorrection implicit_correction = ImplicitCorrection::off;
+  /// coupled: most re-solve passes of the bodies in free-free contact per step (the first solve,
+  /// then one per CG iteration on the contact forces).
+  int coupled_passes = 8;
+  /// coupled: the CG on the contact forces stops when every active contact's gap is within this of
+  /// its target and no inactive one penetrates by more (m).
+  double coupled_gap_tolerance = 1e-7;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

@@ -19,8 +19,12 @@
 // equal and opposite (docs). The re-solve does not apply a body's held forces again (its
 // constraints hold the dent); the integration still takes them, as with the correction off
 // (skipping them there for bodies re-solved in the last step was measured and rejected: docs).
+// `coupled` (session 7) is `all` with each contact between two free corotational-FEM bodies carried
+// by one normal force lambda >= 0, equal and opposite on the pair by construction, found by
+// projected CG over the paired bodies' re-solves (design note in the .cpp).
 #pragma once
 
+#include <array>
 #include <span>
 #include <vector>
 
@@ -34,17 +38,17 @@ namespace pliant {
 class ImplicitContactCorrection {
  public:
   /// Re-solves the step of the corotational-FEM bodies with contact vertices in `contacts` that
-  /// `scope` admits, from `start_positions` / `start_velocities` (per body slot, the state before
-  /// the step), under gravity (m/s^2) and the bodies' applied forces (held contact forces are not
-  /// applied again: the constraints hold the dent), over dt (s). `held_contacts`: the contacts whose
-  /// held forces acted in the step's integration (stiff_partners: a pair in them counts as a
-  /// contact). Replaces the report's reaction on a kinematic body that touches only re-solved bodies
-  /// by minus the constraint forces of the vertices touching it.
+  /// `settings.implicit_correction` admits, from `start_positions` / `start_velocities` (per body slot, the
+  /// state before the step), under gravity (m/s^2) and the bodies' applied forces (held contact forces are
+  /// not applied again: the constraints hold the dent), over dt (s). `held_contacts`: the contacts whose held
+  /// forces acted in the step's integration (stiff_partners: a pair in them counts as a contact). Replaces
+  /// the report's reaction on a kinematic body that touches only re-solved bodies by minus the constraint
+  /// forces of the vertices touching it.
   void correct(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                std::span<const VertexContact> held_contacts,
                std::span<const std::vector<Vec3>> start_positions,
                std::span<const std::vector<Vec3>> start_velocities, const Vec3& gravity, double dt,
-               ImplicitCorrection scope, StepReport& report);
+               const ContactSettings& settings, StepReport& report);
   /// Constraint forces (N) per vertex of body slot `body` from the last correction; empty if the
   /// body was not re-solved in it.
   std::span<const Vec3> constraint_forces(int body) const;
@@ -52,9 +56,23 @@ class ImplicitContactCorrection {
   void clear() {
     for (auto& c : per_body_) c.active = false;
     corrected_bodies_ = 0;
+    pairs_.clear();
+    coupled_passes_ = 0;
+    coupled_gap_error_ = 0.0;
   }
   /// Bodies re-solved by the last correction.
   int corrected_bodies() const { return corrected_bodies_; }
+  /// Coupled mode: contacts between two free bodies in the last correction.
+  int coupled_contacts() const { return static_cast<int>(pairs_.size()); }
+  /// Coupled mode: re-solve passes of the bodies in free-free contact in the last correction.
+  int coupled_passes() const { return coupled_passes_; }
+  /// Coupled mode: largest gap error left by the last correction (m; active: |g - target|,
+  /// inactive: penetration below target).
+  double coupled_gap_error() const { return coupled_gap_error_; }
+  /// The settings the contact-surface response runs with under contact.implicit_correction: `contact`
+  /// itself, except that `all` turns held forces off (its constraints hold the dent); the copy then
+  /// lives in this object until the next call.
+  const ContactSettings& response_settings(const ContactSettings& contact);
 
  private:
   /// Per body slot: the constraints gathered this step and the solve's output.
@@ -66,7 +84,32 @@ class ImplicitContactCorrection {
     std::vector<double> normal_velocity;  ///< m/s, prescribed v_{n+1} . n
     std::vector<Vec3> force;              ///< N, constraint forces of the solve
     std::vector<Vec3> external;           ///< N, gravity plus applied forces
+    std::vector<Vec3> pair_force;         ///< N, coupled: the pair contacts' forces on each vertex
+    bool paired = false;                  ///< coupled: has a pair contact this step
   };
+  /// A contact between two free corotational-FEM bodies in coupled mode: a scalar normal force
+  /// lambda >= 0 (N) acts +lambda n on the colliding vertex and -w_k lambda n on its contact
+  /// triangle's vertices; the gap g = (x_a - sum_k w_k x_bk) . n at x_{n+1} should reach `target`.
+  struct PairContact {
+    int body = -1, vertex = -1;      ///< colliding body slot and vertex
+    int triangle_body = -1;          ///< penetrated body slot
+    std::array<int, 3> triangle{};   ///< contact triangle's vertices
+    std::array<double, 3> weight{};  ///< barycentric weights, clamped at 0 and normalised
+    Vec3 normal = Vec3::Zero();      ///< contact triangle's outward unit normal (response positions)
+    double target = 0.0;             ///< m, gap at the response's positions
+    double lambda = 0.0;             ///< N, normal force (CG unknown)
+    double scale = 0.0;              ///< m/N, h^2 (1/m_a + sum w_k^2 / m_bk): the CG's preconditioner
+  };
+  /// Body slots re-solved this step: `coupled` lists the ones with a pair contact.
+  void activate(std::span<Body* const> bodies, size_t body);
+  /// Re-solves body slot b from the start of the step with its prescribed constraints and its
+  /// external forces plus the pair forces (positions, velocities and constraint forces written).
+  void solve_body(Body& body, size_t b, std::span<const std::vector<Vec3>> start_positions,
+                  std::span<const std::vector<Vec3>> start_velocities, double dt, StepReport& report);
+  /// Coupled mode: projected CG on the pair contacts' forces (design note in the .cpp).
+  void solve_pairs(std::span<Body* const> bodies, std::span<const std::vector<Vec3>> start_positions,
+                   std::span<const std::vector<Vec3>> start_velocities, double dt,
+                   const ContactSettings& settings, StepReport& report);
   /// Adds a push direction to a body's vertex (ignored for bodies that are not re-solved).
   /// `stiff`: the partner cannot move (kinematic, sleeping or fixed).
   void add_constraint(std::span<Body* const> bodies, int body, int vertex, const Vec3& push, int partner,
@@ -74,6 +117,10 @@ class ImplicitContactCorrection {
 
   std::vector<BodyConstraints> per_body_;
   int corrected_bodies_ = 0;
+  std::vector<PairContact> pairs_;     ///< coupled: this step's free-free contacts
+  int coupled_passes_ = 0;             ///< coupled: re-solve passes of the last correction
+  double coupled_gap_error_ = 0.0;     ///< coupled: largest gap error left (m)
+  ContactSettings response_settings_;  ///< response_settings' copy when it differs from the input
 };
 
 }  // namespace pliant

@@ -19,6 +19,7 @@
 #include <cmath>
 
 #include "sim/model/corotational_fem.h"
+#include "sim/model/preconditioned_cg.h"
 
 namespace pliant {
 namespace {
@@ -31,7 +32,8 @@ constexpr int kReleasePasses = 8;
 }  // namespace
 
 CorotationalFem::CgOutcome CorotationalFem::solve_constrained(std::span<const Vec3> v, double mass_scale,
-                                                              double stiffness_scale, const IntegrationInput& in) {
+                                                              double stiffness_scale,
+                                                              const IntegrationInput& in) {
   const size_t n = dv_.size();
   const double h = in.dt;
   constraint_normal_.resize(n);
@@ -90,38 +92,20 @@ CorotationalFem::CgOutcome CorotationalFem::solve_constrained(std::span<const Ve
       }
     }
     // Filtered block-Jacobi PCG on the free components.
-    double rz = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      p_[i] = z_[i] = precondition(i);
-      rz += r_[i].dot(z_[i]);
-    }
-    int it = 0;
-    while (residual > accuracy_.solver_tolerance && it < accuracy_.max_solver_iterations) {
-      multiply_system(p_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
-      double pq = 0.0;
-      for (size_t i = 0; i < n; ++i) {
-        q_[i] = filter(i, q_[i]);
-        pq += p_[i].dot(q_[i]);
-      }
-      if (!(pq > 0.0) || !(rz > 0.0)) break;
-      const double a = rz / pq;
-      double rr_next = 0.0, rz_next = 0.0;
-      for (size_t i = 0; i < n; ++i) {
-        dv_[i] += a * p_[i];
-        r_[i] -= a * q_[i];
-        z_[i] = precondition(i);
-        rr_next += r_[i].squaredNorm();
-        rz_next += r_[i].dot(z_[i]);
-      }
-      ++it;
-      residual = std::sqrt(rr_next) / reference;
-      if (residual <= accuracy_.solver_tolerance) break;
-      const double b = rz_next / rz;
-      rz = rz_next;
-      for (size_t i = 0; i < n; ++i) p_[i] = z_[i] + b * p_[i];
-    }
-    outcome.iterations += it;
-    outcome.residual = residual;
+    const PcgOutcome o = preconditioned_cg(
+        dv_, r_, p_, q_, z_, residual, reference, accuracy_.solver_tolerance, accuracy_.max_solver_iterations,
+        [&](std::span<const Vec3> p, std::span<Vec3> q) {
+          multiply_system(p, q, mass_scale, stiffness_scale, in.masses, in.fixed);
+          double pq = 0.0;
+          for (size_t i = 0; i < n; ++i) {
+            q[i] = filter(i, q[i]);
+            pq += p[i].dot(q[i]);
+          }
+          return pq;
+        },
+        precondition);
+    outcome.iterations += o.iterations;
+    outcome.residual = o.residual;
 
     // Constraint forces (A dv - rhs) / h along n; release the ones that pull.
     multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);

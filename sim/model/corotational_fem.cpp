@@ -9,6 +9,7 @@
 #include <xmmintrin.h>
 #endif
 
+#include "sim/model/preconditioned_cg.h"
 #include "sim/model/rotation_extraction.h"
 
 namespace pliant {
@@ -705,33 +706,13 @@ double CorotationalFem::multiply_system(std::span<const Vec3> p, std::span<Vec3>
 CorotationalFem::CgOutcome CorotationalFem::solve_jacobi(double residual, double rhs_norm, double mass_scale,
                                                        double stiffness_scale, std::span<const double> masses,
                                                        std::span<const char> fixed) {
-  const size_t n = dv_.size();
-  double rz = 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    p_[i] = z_[i] = preconditioner_[i] * r_[i];
-    rz += r_[i].dot(z_[i]);
-  }
-  int it = 0;
-  while (residual > accuracy_.solver_tolerance && it < accuracy_.max_solver_iterations) {
-    const double pq = multiply_system(p_, q_, mass_scale, stiffness_scale, masses, fixed);
-    if (!(pq > 0.0) || !(rz > 0.0)) break;
-    const double a = rz / pq;
-    double rr_next = 0.0, rz_next = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      dv_[i] += a * p_[i];
-      r_[i] -= a * q_[i];
-      z_[i] = preconditioner_[i] * r_[i];
-      rr_next += r_[i].squaredNorm();
-      rz_next += r_[i].dot(z_[i]);
-    }
-    ++it;
-    residual = std::sqrt(rr_next) / rhs_norm;
-    if (residual <= accuracy_.solver_tolerance) break;
-    const double b = rz_next / rz;
-    rz = rz_next;
-    for (size_t i = 0; i < n; ++i) p_[i] = z_[i] + b * p_[i];
-  }
-  return {it, residual};
+  const PcgOutcome o = preconditioned_cg(
+      dv_, r_, p_, q_, z_, residual, rhs_norm, accuracy_.solver_tolerance, accuracy_.max_solver_iterations,
+      [&](std::span<const Vec3> p, std::span<Vec3> q) {
+        return multiply_system(p, q, mass_scale, stiffness_scale, masses, fixed);
+      },
+      [&](size_t i) { return Vec3(preconditioner_[i] * r_[i]); });
+  return {o.iterations, o.residual};
 }
 
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)

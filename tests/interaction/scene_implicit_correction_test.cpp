@@ -23,7 +23,7 @@ TEST(SceneFormat, ContactImplicitCorrectionReachesTheWorld) {
             ImplicitCorrection::off);
   const std::pair<nlohmann::json, ImplicitCorrection> cases[] = {
       {"off", ImplicitCorrection::off}, {"stiff_partners", ImplicitCorrection::stiff_partners},
-      {"all", ImplicitCorrection::all}, {true, ImplicitCorrection::all},
+      {"all", ImplicitCorrection::all}, {"coupled", ImplicitCorrection::coupled}, {true, ImplicitCorrection::all},
       {false, ImplicitCorrection::off},
   };
   for (const auto& [value, expected] : cases) {

@@ -48,13 +48,14 @@ ChurnRun run_stack(int blocks, double mu, double dt, bool fixed_base = false) {
   world.settings().contact.finishing_projection = true;
   // Opt-in, for measuring (session 6): PLIANT_CHURN_IMPLICIT_CORRECTION=1 (or "all") turns the
   // implicit contact correction on for every body, =2 (or "stiff_partners") only where the partner
-  // is immovable.
+  // is immovable, =3 (or "coupled") with free-free contacts coupled (session 7).
   if (const char* env = std::getenv("PLIANT_CHURN_IMPLICIT_CORRECTION"); env != nullptr) {
     const std::string scope = env;
     if (scope == "1" || scope == "all") world.settings().contact.implicit_correction = ImplicitCorrection::all;
     if (scope == "2" || scope == "stiff_partners") {
       world.settings().contact.implicit_correction = ImplicitCorrection::stiff_partners;
     }
+    if (scope == "3" || scope == "coupled") world.settings().contact.implicit_correction = ImplicitCorrection::coupled;
   }
   const auto mesh = make_box_mesh({Vec3(0.03, 0.03, 0.03), 2, 2, 2});
   std::vector<BodyId> ids;

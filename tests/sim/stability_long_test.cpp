@@ -84,11 +84,13 @@ std::vector<Case> full_matrix() {
   }
   // Opt-in (session 6): PLIANT_STABILITY_IMPLICIT_CORRECTION=1 (or "all") runs the contact-surface
   // cases with ContactSettings::implicit_correction on for every body, =2 (or "stiff_partners") only
-  // where the partner is immovable (docs/contact-surface.md, "Contact inside the implicit solve").
+  // where the partner is immovable, =3 (or "coupled") with free-free contacts coupled (session 7)
+  // (docs/contact-surface.md, "Contact inside the implicit solve").
   if (const char* env = std::getenv("PLIANT_STABILITY_IMPLICIT_CORRECTION"); env != nullptr) {
     const std::string name = env;
     const ImplicitCorrection scope = name == "1" || name == "all"                ? ImplicitCorrection::all
                                      : name == "2" || name == "stiff_partners" ? ImplicitCorrection::stiff_partners
+                                     : name == "3" || name == "coupled"        ? ImplicitCorrection::coupled
                                                                                 : ImplicitCorrection::off;
     for (Case& c : cases) {
       if (c.method != ContactMethod::contact_surface || scope == ImplicitCorrection::off) continue;
