@@ -78,7 +78,7 @@ struct ContactSettings {
   /// the stack's bounce at dt 1 ms). With this on, a pair whose sides are each free or immovable
   /// (kinematic, sleeping; not a body with fixed vertices) and whose centres separate at u along
   /// its held force F releases min(|F| dt, mu u) of the held impulse (mu the pair's reduced mass).
-  /// Measured: two free blocks at 1 ms, late KE 4.9e-4 -> 2.7e-5 J (mu 0) but 1.4e-5 -> 2.5e-5 J
+  /// Measured: two free blocks at 1 ms, late KE 4.9e-4 -> 3.3e-5 J (mu 0) but 1.4e-5 -> 3.3e-5 J
   /// (mu 0.5); not resting either way, so off by default.
   bool held_force_release = false;
   /// Beyond the paper, opt-in experiment (docs/stability.md, M1): where a body's pressure wave
