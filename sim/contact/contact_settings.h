@@ -87,6 +87,15 @@ struct ContactSettings {
   /// method, for comparison); fractions in between only for comparison (the stability harness
   /// and its ledger keep their session-2 value 0.8).
   double held_force_fraction = 1.0;
+  /// Beyond the paper, opt-in (docs/contact-surface.md, "Resting churn", session 7): a held force
+  /// is the last step's contact force, so where the two bodies' centres of mass already separate
+  /// along it, it pushes them apart through the next integration (positive work on the rigid modes:
+  /// the stack's bounce at dt 1 ms). With this on, a pair whose sides are each free or immovable
+  /// (kinematic, sleeping; not a body with fixed vertices) and whose centres separate at u along
+  /// its held force F releases min(|F| dt, mu u) of the held impulse (mu the pair's reduced mass).
+  /// Measured: two free blocks at 1 ms, late KE 4.9e-4 -> 3.3e-5 J (mu 0) but 1.4e-5 -> 3.3e-5 J
+  /// (mu 0.5); not resting either way, so off by default.
+  bool held_force_release = false;
   /// Beyond the paper, opt-in experiment (docs/stability.md, M1): where a body's pressure wave
   /// crosses more than a cell in the step (CFL c_p dt / h > 1), a vertex takes only 1/CFL^2 of the
   /// displacement the search found; the rest stays as overlap for the next steps. Off by default:

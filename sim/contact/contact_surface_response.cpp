@@ -338,6 +338,7 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
   }
   held_contacts_.clear();
   held_normal_force_.clear();
+  held_direction_.clear();
   // Internal force at each region vertex at the contact surface (the last local evaluation).
   region_force_.assign(region_.vertices().size(), Vec3::Zero());
   for (const auto& g : region_.groups()) {
@@ -378,6 +379,7 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
     slot = static_cast<int>(held_contacts_.size());
     held_contacts_.push_back(contact);
     held_normal_force_.push_back(magnitude);
+    held_direction_.push_back(impulses_[c].normal / impulses_[c].normal_magnitude);
     m.force[static_cast<size_t>(contact.vertex)] += f;
     m.pending = true;
     const auto& tri = bodies[static_cast<size_t>(contact.penetrated_body)]
@@ -386,6 +388,71 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
       n.force[static_cast<size_t>(tri[static_cast<size_t>(k)])] -= contact.contact_barycentric[k] * f;
     }
     n.pending = true;
+  }
+}
+
+// Design note (session 7, docs/contact-surface.md "Resting churn"): the energy ledger of the
+// two-block stack at dt 1 ms shows the held forces doing positive work on the blocks' centres of
+// mass in the integration (the rigid bounce mode is pumped: a contact force delayed by one step at
+// omega dt ~ 1), while their total work is negative (they hold the dents). Stage 5 of the next step
+// would take back the held impulse a separating free body carries (the rigid take-back); releasing
+// that part before the integration keeps it from pushing first. Only the rigid part is judged:
+// centre-of-mass velocities (after stage 5) along the pair's total held force. A body with fixed
+// vertices has no rigid modes; its pairs keep their held forces (a soft fixed-base partner's
+// rebound is pushed by the held force legitimately: releasing there failed the energy ledger's
+// stiffness-ratio-1e3 case and the CFL-limited ratio-1e6 case).
+void ContactSurfaceResponse::release_separating_pairs(std::span<Body* const> bodies, double dt) {
+  auto is_free = [](const Body& b) {
+    if (b.is_kinematic() || b.is_sleeping()) return false;
+    return std::none_of(b.fixed.begin(), b.fixed.end(), [](char f) { return f != 0; });
+  };
+  auto centre_velocity = [](const Body& b, double& mass) {  // m/s; mass in kg
+    Vec3 momentum = Vec3::Zero();
+    mass = 0.0;
+    for (size_t v = 0; v < b.positions.size(); ++v) {
+      momentum += b.masses[v] * b.velocities[v];
+      mass += b.masses[v];
+    }
+    return Vec3(momentum / mass);
+  };
+  pair_done_.assign(held_contacts_.size(), 0);
+  for (size_t i = 0; i < held_contacts_.size(); ++i) {
+    if (pair_done_[i] != 0) continue;
+    const int a = held_contacts_[i].body, b = held_contacts_[i].penetrated_body;
+    Vec3 force = Vec3::Zero();  // N, the pair's held force on a
+    for (size_t j = i; j < held_contacts_.size(); ++j) {
+      const VertexContact& c = held_contacts_[j];
+      if (c.body != a || c.penetrated_body != b) continue;
+      force += held_normal_force_[j] * held_direction_[j];
+      pair_done_[j] = 1;
+    }
+    const Body& body_a = *bodies[static_cast<size_t>(a)];
+    const Body& body_b = *bodies[static_cast<size_t>(b)];
+    const bool free_a = is_free(body_a), free_b = is_free(body_b);
+    const bool rigid_a = free_a || body_a.is_kinematic() || body_a.is_sleeping();
+    const bool rigid_b = free_b || body_b.is_kinematic() || body_b.is_sleeping();
+    if (!(free_a || free_b) || !rigid_a || !rigid_b || force.squaredNorm() == 0.0) continue;
+    double mass_a = 0.0, mass_b = 0.0;
+    const Vec3 velocity_a = free_a ? centre_velocity(body_a, mass_a) : Vec3::Zero();
+    const Vec3 velocity_b = free_b ? centre_velocity(body_b, mass_b) : Vec3::Zero();
+    const double reduced = free_a && free_b ? mass_a * mass_b / (mass_a + mass_b) : (free_a ? mass_a : mass_b);
+    const double separating = (velocity_a - velocity_b).dot(force.normalized());  // m/s
+    if (separating <= 0.0) continue;
+    const double scale = std::max(0.0, 1.0 - reduced * separating / (force.norm() * dt));
+    const auto& triangles = body_b.mesh->surface_triangles();
+    for (size_t j = i; j < held_contacts_.size(); ++j) {
+      const VertexContact& c = held_contacts_[j];
+      if (c.body != a || c.penetrated_body != b) continue;
+      // The part of this contact's held force released, on the vertex; its triangle gets it back.
+      const Vec3 released = (1.0 - scale) * held_normal_force_[j] * held_direction_[j];
+      held_[static_cast<size_t>(a)].force[static_cast<size_t>(c.vertex)] -= released;
+      const auto& tri = triangles[static_cast<size_t>(c.contact_triangle)];
+      for (int k = 0; k < 3; ++k) {
+        held_[static_cast<size_t>(b)].force[static_cast<size_t>(tri[static_cast<size_t>(k)])] +=
+            c.contact_barycentric[k] * released;
+      }
+      held_normal_force_[j] *= scale;
+    }
   }
 }
 
@@ -481,6 +548,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   if (settings.finishing_projection && friction_moved) finishing_projection(bodies, contacts, region_, 32);
   if (warm_start) {
     hold_forces(bodies, dt, settings.held_force_fraction);
+    if (settings.held_force_release) release_separating_pairs(bodies, dt);
   } else {
     held_.clear();
     held_contacts_.clear();

@@ -61,6 +61,9 @@ class ContactSurfaceResponse final : public ContactResponse {
                        bool warm_start);
   /// Stores `fraction` of this step's normal contact forces for the next integration.
   void hold_forces(std::span<Body* const> bodies, double dt, double fraction);
+  /// ContactSettings::held_force_release: per body pair whose centres of mass separate along its
+  /// held force, scales that pair's held forces down by the impulse the separation carries.
+  void release_separating_pairs(std::span<Body* const> bodies, double dt);
 
   std::vector<HeldForces> held_;
   std::vector<VertexContact> held_contacts_;  ///< last step's contacts with a normal force
@@ -70,6 +73,8 @@ class ContactSurfaceResponse final : public ContactResponse {
   std::vector<VertexContact> saved_held_contacts_;
   std::vector<double> saved_held_normal_force_;
   std::vector<char> held_used_;               ///< scratch: held contact found again this step
+  std::vector<char> pair_done_;               ///< scratch: held contact's pair already released
+  std::vector<Vec3> held_direction_;          ///< scratch: unit held force on the vertex, per held contact
   std::vector<VertexContact> all_contacts_;   ///< this step's contacts, then the lingering ones
   std::vector<double> held_impulses_;         ///< N s per entry of all_contacts_
   std::vector<Vec3> region_force_;            ///< N, internal force per region vertex (scratch)
