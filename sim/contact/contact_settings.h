@@ -59,9 +59,11 @@ struct ContactSettings {
   /// evaluation's positions and K' the stiffness matrix of the body's last implicit step
   /// (DeformationModel::stiffness_product_at: rotations frozen, no per-element work), for a body
   /// whose searching vertices have |s| <= h / 2^(n+2) (a quarter of frozen_rotation_search's
-  /// gate). The first and the final evaluation stay queries. false: every search iteration asks
-  /// the force query (the session-5 search, bit for bit).
-  bool linearised_search = true;
+  /// gate). The first and the final evaluation stay queries. false (the default since session 7:
+  /// on, two free stacked blocks at dt 1 ms churned 12x more and the membrane stack never came to
+  /// rest; docs/contact-surface.md "Linearised search off by default"): every search iteration
+  /// asks the force query (the session-5 search, bit for bit).
+  bool linearised_search = false;
   /// The linearised search's second gate: a body's later iterations ask the query instead where a
   /// searching vertex's move since the first evaluation changes one of its elements' deformation
   /// gradient by more than this (|d| |grad N|, dimensionless; a sliver's rotation turns fast).
