@@ -14,6 +14,8 @@
 
 #include <Eigen/Dense>
 
+#include "sim/contact/friction_move_limit.h"
+
 namespace pliant {
 namespace {
 
@@ -62,7 +64,10 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       if (w_x > 0.0) {
         const Vec3 dv = w_x * j;
         m.velocities[static_cast<size_t>(contact.vertex)] += dv;
-        if (move_positions) m.positions[static_cast<size_t>(contact.vertex)] += dt * dv;
+        if (move_positions) {
+          m.positions[static_cast<size_t>(contact.vertex)] +=
+              friction_move_scale(m, contact.vertex, dv.normalized(), dt) * dt * dv;
+        }
       }
       for (int k = 0; k < 3; ++k) {
         const int y = tri[static_cast<size_t>(k)];
@@ -71,7 +76,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
         // Distribute so the contact point's velocity changes by -w_p j (minimum-norm split).
         const Vec3 dv = -b[k] * wy * j;
         n.velocities[static_cast<size_t>(y)] += dv;
-        if (move_positions) n.positions[static_cast<size_t>(y)] += dt * dv;
+        if (move_positions) n.positions[static_cast<size_t>(y)] += friction_move_scale(n, y, dv.normalized(), dt) * dt * dv;
       }
     };
 
