@@ -1,0 +1,132 @@
+// Stage 5's friction move on a light or stiff vertex (docs/stability.md, M6): the friction impulse
+// moves a vertex by dt dv besides changing its velocity. Moving one vertex alone stores up to
+// k u^2 / 2 (k its own stiffness), while the impulse removes only m dv^2 / 2 of kinetic energy; on
+// the 1 mg block with a sliver tet of Stability.SurfaceMilligramBodyWithASliver (omega dt in the
+// hundreds) the move stored thousands of times what it removed. friction_move_scale caps the move
+// at 1 / (omega dt) of dt dv. References: the closed-form stiffness of one tet's apex, and the
+// stage's own energy balance (algorithms.md: stage 5 is chosen to inject no energy).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/contact/contact_velocity_update.h"
+#include "sim/contact/friction_move_limit.h"
+#include "sim/model/deformation_model.h"
+#include "sim/stability_harness.h"
+
+namespace pliant::stability {
+namespace {
+
+/// The model's elastic energy (J) after moving `vertex` alone by u along the unit direction d.
+double energy_of_move(Body& body, int vertex, const Vec3& d, double u) {
+  std::vector<Vec3> moved = body.positions;
+  moved[static_cast<size_t>(vertex)] += u * d;
+  return body.model->elastic_energy(moved) - body.model->elastic_energy(body.positions);
+}
+
+// The stiffness one vertex feels alone, against the deformation model's own energy k u^2 / 2 for a
+// small move (corotational FEM at rest: linear elasticity to second order): the apex of one tet and
+// an inner vertex of a box's bottom face (eight tets), along several directions.
+TEST(FrictionMoveLimit, VertexStiffnessIsTheModelsEnergyOfMovingOneVertex) {
+  const std::vector<Vec3> x = {Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0, 0.01, 0), Vec3(0.002, 0.003, 0.004)};
+  World world;
+  BodyDef tet{.name = "tet", .mesh = TetMesh::build(x, {TetIndices{0, 1, 2, 3}}, "one tet"),
+              .material = material(1e4, 0.3, 1000.0)};
+  Body& one = world.body(world.add_body(tet));
+  const TetMeshPtr box_mesh = make_box_mesh({Vec3(kUpperSize, kUpperSize, kUpperHeight), 4, 4, 2});
+  BodyDef box{.name = "box", .mesh = box_mesh, .material = material(1e4, 0.45, 1000.0)};
+  Body& block = world.body(world.add_body(box));
+  int inner = -1;  // a bottom-face vertex away from the edges
+  for (int v = 0; v < box_mesh->vertex_count(); ++v) {
+    const Vec3 p = box_mesh->rest_positions()[static_cast<size_t>(v)];
+    if (std::abs(p.z() + 0.5 * kUpperHeight) < 1e-12 && std::abs(p.x()) < 1e-12 && std::abs(p.y()) < 1e-12) inner = v;
+  }
+  ASSERT_GE(inner, 0);
+  const double u = 1e-8;  // m
+  for (const Vec3& d : {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1), Vec3(1, -2, 0.5).normalized()}) {
+    for (auto [body, v] : {std::pair<Body*, int>{&one, 3}, std::pair<Body*, int>{&block, inner}}) {
+      const double k = vertex_stiffness_along(*body, v, d);
+      EXPECT_NEAR(energy_of_move(*body, v, d, u), 0.5 * k * u * u, 1e-4 * 0.5 * k * u * u) << body->name;
+    }
+  }
+}
+
+/// Kinetic energy of a body (J).
+double kinetic(const Body& b) {
+  double e = 0.0;
+  for (size_t v = 0; v < b.positions.size(); ++v) e += 0.5 * b.masses[v] * b.velocities[v].squaredNorm();
+  return e;
+}
+
+// The 1 mg block with a sliver tet touching the lower block: its vertex next to the sliver's apex
+// (0.05 mm apart along x) slides in +x and approaches, so friction slows it. Stage 5 must take
+// energy out (kinetic removed >= elastic stored); with the full move dt dv it stored 1e3-1e4 times
+// more than it removed (measured before friction_move_scale: see the printout).
+TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves) {
+  Case c{.name = "surface 1 mg sliver", .method = ContactMethod::contact_surface};
+  c.upper_mass = 1e-6;
+  c.sliver = true;
+  World world(world_settings(c));
+  const Scene scene = build_scene(c, world);
+  ASSERT_TRUE(scene.ok);
+  Body& lower = world.body(scene.lower);
+  Body& upper = world.body(scene.upper);
+  // The sliver's moved vertex and its neighbour 0.05 mm away on the bottom face.
+  int apex = -1, neighbour = -1;
+  const TetMeshPtr box = make_box_mesh({Vec3(kUpperSize, kUpperSize, kUpperHeight), 4, 4, 2});
+  for (int v = 0; v < upper.mesh->vertex_count(); ++v) {
+    if ((upper.mesh->rest_positions()[static_cast<size_t>(v)] - box->rest_positions()[static_cast<size_t>(v)]).norm() > 0) apex = v;
+  }
+  ASSERT_GE(apex, 0);
+  for (int v = 0; v < upper.mesh->vertex_count(); ++v) {
+    const double d = (upper.mesh->rest_positions()[static_cast<size_t>(v)] - upper.mesh->rest_positions()[static_cast<size_t>(apex)]).norm();
+    if (v != apex && d < 1e-4) neighbour = v;
+  }
+  ASSERT_GE(neighbour, 0);
+  const Vec3 p = upper.positions[static_cast<size_t>(neighbour)];
+
+  // The lower block's top triangle under it (top face at z = 0).
+  VertexContact contact;
+  contact.body = static_cast<int>(scene.upper.index);
+  contact.vertex = neighbour;
+  contact.penetrated_body = static_cast<int>(scene.lower.index);
+  const auto& tris = lower.mesh->surface_triangles();
+  for (size_t t = 0; t < tris.size() && contact.contact_triangle < 0; ++t) {
+    const Vec3 a = lower.positions[static_cast<size_t>(tris[t][0])], b = lower.positions[static_cast<size_t>(tris[t][1])],
+               cc = lower.positions[static_cast<size_t>(tris[t][2])];
+    if (std::abs(a.z()) > 1e-9 || std::abs(b.z()) > 1e-9 || std::abs(cc.z()) > 1e-9) continue;
+    // Barycentric coordinates of p's projection in the xy plane.
+    const double det = (b.x() - a.x()) * (cc.y() - a.y()) - (cc.x() - a.x()) * (b.y() - a.y());
+    const double l1 = ((p.x() - a.x()) * (cc.y() - a.y()) - (cc.x() - a.x()) * (p.y() - a.y())) / det;
+    const double l2 = ((b.x() - a.x()) * (p.y() - a.y()) - (p.x() - a.x()) * (b.y() - a.y())) / det;
+    if (l1 < 0 || l2 < 0 || l1 + l2 > 1) continue;
+    contact.contact_triangle = static_cast<int>(t);
+    contact.contact_barycentric = Vec3(1 - l1 - l2, l1, l2);
+    contact.contact_point = (1 - l1 - l2) * a + l1 * b + l2 * cc;
+  }
+  ASSERT_GE(contact.contact_triangle, 0);
+  contact.penetration_direction = Vec3(0, 0, 1);
+
+  // Sliding +x at 0.3 m/s and approaching at 0.3 m/s: the normal impulse stops the approach and
+  // friction (mu 0.2) takes up to 0.06 m/s off the slide.
+  upper.velocities[static_cast<size_t>(neighbour)] = Vec3(0.3, 0.0, -0.3);
+  const double dt = c.dt;
+  const double ke0 = kinetic(upper) + kinetic(lower);
+  const double el0 = upper.model->elastic_energy(upper.positions) + lower.model->elastic_energy(lower.positions);
+  std::vector<ContactImpulse> impulses;
+  std::vector<RigidModes> rigid;
+  const std::vector<VertexContact> contacts = {contact};
+  apply_contact_velocity_update(world.bodies(), contacts, dt, true, {}, contacts.size(), impulses, rigid);
+  const double ke1 = kinetic(upper) + kinetic(lower);
+  const double el1 = upper.model->elastic_energy(upper.positions) + lower.model->elastic_energy(lower.positions);
+  const double moved = (upper.positions[static_cast<size_t>(neighbour)] - p).norm();
+  std::printf("friction on the sliver's neighbour: moved %.3g mm (dt dv %.3g mm), kinetic removed %.3g J, elastic stored %.3g J\n",
+              moved * 1e3, dt * impulses[0].friction.norm() / upper.masses[static_cast<size_t>(neighbour)] * 1e3, ke0 - ke1,
+              el1 - el0);
+  ASSERT_GT(impulses[0].friction.norm(), 0.0);  // friction acted
+  EXPECT_GT(ke0 - ke1, 0.0);
+  EXPECT_LE(el1 - el0, ke0 - ke1);  // no energy out of nothing
+}
+
+}  // namespace
+}  // namespace pliant::stability
