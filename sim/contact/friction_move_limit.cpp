@@ -14,7 +14,8 @@ double vertex_stiffness_along(const Body& body, int vertex, const Vec3& directio
     Vec3 face[3];
     int n = 0;
     for (int a = 0; a < 4; ++a) {
-      if (tet[static_cast<size_t>(a)] != vertex) face[n++] = x[static_cast<size_t>(tet[static_cast<size_t>(a)])];
+      if (tet[static_cast<size_t>(a)] != vertex)
+        face[n++] = x[static_cast<size_t>(tet[static_cast<size_t>(a)])];
     }
     const double volume = mesh.rest_volumes()[static_cast<size_t>(t)];
     if (!(volume > 0.0)) continue;

@@ -6,8 +6,11 @@
 // stiffness (the diagonal block of the stiffness matrix: every other vertex held), while the
 // impulse takes out only m dv^2 / 2 of kinetic energy. Where omega dt = sqrt(k / m) dt > 1 (a
 // light vertex, or a stiff one such as a sliver tet's apex) the full move stores more than the
-// impulse removes: energy out of nothing. The move is scaled by min(1, 1 / (omega dt)), so it
-// stores at most what the impulse removes; the velocity change is untouched.
+// impulse removes: energy out of nothing. With the limit on the move is scaled by
+// min(1, 1 / (omega dt)), so it stores at most what the impulse removes; the velocity change is
+// untouched. It is an experiment, off in every caller (apply_contact_velocity_update's
+// limit_friction_move): a sticking stiff block's vertices move together, which stores nothing, and
+// with the limit the block creeps down an incline.
 #pragma once
 
 #include "sim/body.h"
