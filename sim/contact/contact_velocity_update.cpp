@@ -28,7 +28,7 @@ double inverse_mass(const Body& body, int v) {
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
-                                   std::vector<RigidModes>& rigid_scratch) {
+                                   std::vector<RigidModes>& rigid_scratch, bool limit_friction_move) {
   impulses.assign(contacts.size(), ContactImpulse{});
   // Rigid modes per body slot, only when some contact holds an impulse (the scratch keeps its
   // capacity between steps: no allocation once grown).
@@ -59,14 +59,17 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     const double w_sum = w_x + w_p;
     if (w_sum <= 0.0) continue;  // both sides immovable
 
-    // Applies impulse j (on x; -j spread over the triangle) and moves positions by h dv if asked.
+    // Applies impulse j (on x; -j spread over the triangle) and moves positions by h dv if asked
+    // (scaled by friction_move_scale where limit_friction_move: docs/stability.md M6a).
+    auto move_scale = [&](const Body& body, int v, const Vec3& dv) {
+      return limit_friction_move ? friction_move_scale(body, v, dv.normalized(), dt) : 1.0;
+    };
     auto apply = [&](const Vec3& j, bool move_positions) {
       if (w_x > 0.0) {
         const Vec3 dv = w_x * j;
         m.velocities[static_cast<size_t>(contact.vertex)] += dv;
         if (move_positions) {
-          m.positions[static_cast<size_t>(contact.vertex)] +=
-              friction_move_scale(m, contact.vertex, dv.normalized(), dt) * dt * dv;
+          m.positions[static_cast<size_t>(contact.vertex)] += move_scale(m, contact.vertex, dv) * dt * dv;
         }
       }
       for (int k = 0; k < 3; ++k) {
@@ -76,7 +79,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
         // Distribute so the contact point's velocity changes by -w_p j (minimum-norm split).
         const Vec3 dv = -b[k] * wy * j;
         n.velocities[static_cast<size_t>(y)] += dv;
-        if (move_positions) n.positions[static_cast<size_t>(y)] += friction_move_scale(n, y, dv.normalized(), dt) * dt * dv;
+        if (move_positions) n.positions[static_cast<size_t>(y)] += move_scale(n, y, dv) * dt * dv;
       }
     };
 
