@@ -37,6 +37,10 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
   if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
     rigid.resize(bodies.size());
   }
+  // Friction moves dt dv per body and vertex (m) and their kinetic budget sum m |dv|^2 / 2 (J),
+  // only with limit_friction_move.
+  std::vector<std::vector<Vec3>> friction_moves;
+  std::vector<double> friction_budget;
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];
@@ -60,16 +64,27 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     if (w_sum <= 0.0) continue;  // both sides immovable
 
     // Applies impulse j (on x; -j spread over the triangle) and moves positions by h dv if asked
-    // (scaled by friction_move_scale where limit_friction_move: docs/stability.md M6a).
-    auto move_scale = [&](const Body& body, int v, const Vec3& dv) {
-      return limit_friction_move ? friction_move_scale(body, v, dv.normalized(), dt) : 1.0;
+    // (with limit_friction_move the moves are recorded per body and scaled at the end of the pass,
+    // docs/stability.md M6a).
+    auto record_move = [&](int body, int v, const Vec3& dv) {
+      if (!limit_friction_move) return;
+      if (friction_moves.empty()) {
+        friction_moves.resize(bodies.size());
+        friction_budget.assign(bodies.size(), 0.0);
+      }
+      std::vector<Vec3>& moves = friction_moves[static_cast<size_t>(body)];
+      const Body& owner = *bodies[static_cast<size_t>(body)];
+      if (moves.empty()) moves.assign(owner.positions.size(), Vec3::Zero());
+      moves[static_cast<size_t>(v)] += dt * dv;
+      friction_budget[static_cast<size_t>(body)] += 0.5 * owner.masses[static_cast<size_t>(v)] * dv.squaredNorm();
     };
     auto apply = [&](const Vec3& j, bool move_positions) {
       if (w_x > 0.0) {
         const Vec3 dv = w_x * j;
         m.velocities[static_cast<size_t>(contact.vertex)] += dv;
         if (move_positions) {
-          m.positions[static_cast<size_t>(contact.vertex)] += move_scale(m, contact.vertex, dv) * dt * dv;
+          m.positions[static_cast<size_t>(contact.vertex)] += dt * dv;
+          record_move(contact.body, contact.vertex, dv);
         }
       }
       for (int k = 0; k < 3; ++k) {
@@ -79,7 +94,10 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
         // Distribute so the contact point's velocity changes by -w_p j (minimum-norm split).
         const Vec3 dv = -b[k] * wy * j;
         n.velocities[static_cast<size_t>(y)] += dv;
-        if (move_positions) n.positions[static_cast<size_t>(y)] += move_scale(n, y, dv) * dt * dv;
+        if (move_positions) {
+          n.positions[static_cast<size_t>(y)] += dt * dv;
+          record_move(contact.penetrated_body, y, dv);
+        }
       }
     };
 
@@ -139,6 +157,16 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     const Vec3 j = -jt * (v_t / speed);
     apply(j, true);
     impulses[c].friction = j;
+  }
+  // The limit (docs/stability.md M6a): a body's friction moves store at most their kinetic budget;
+  // a rigid part stores nothing and is kept whole.
+  for (size_t i = 0; i < friction_moves.size(); ++i) {
+    if (friction_moves[i].empty()) continue;
+    Body& body = *bodies[i];
+    const std::vector<Vec3> deforming = friction_move_deforming_part(body, friction_moves[i]);
+    const double scale = friction_move_scale(body, deforming, friction_budget[i]);
+    if (scale >= 1.0) continue;
+    for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];
   }
   for (size_t i = 0; i < rigid.size(); ++i) {
     if (!rigid[i].ready || !rigid[i].free) continue;
