@@ -28,7 +28,7 @@ double inverse_mass(const Body& body, int v) {
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
-                                   std::vector<RigidModes>& rigid_scratch, bool limit_friction_move) {
+                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves) {
   impulses.assign(contacts.size(), ContactImpulse{});
   // Rigid modes per body slot, only when some contact holds an impulse (the scratch keeps its
   // capacity between steps: no allocation once grown).
@@ -37,10 +37,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
   if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
     rigid.resize(bodies.size());
   }
-  // Friction moves dt dv per body and vertex (m) and their kinetic budget sum m |dv|^2 / 2 (J),
-  // only with limit_friction_move.
-  std::vector<std::vector<Vec3>> friction_moves;
-  std::vector<double> friction_budget;
+  if (friction_moves != nullptr) friction_moves->begin(bodies.size());
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];
@@ -64,19 +61,12 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     if (w_sum <= 0.0) continue;  // both sides immovable
 
     // Applies impulse j (on x; -j spread over the triangle) and moves positions by h dv if asked
-    // (with limit_friction_move the moves are recorded per body and scaled at the end of the pass,
+    // (with a friction_moves ledger the moves are recorded per body and scaled at the end of the pass,
     // docs/stability.md M6a).
     auto record_move = [&](int body, int v, const Vec3& dv) {
-      if (!limit_friction_move) return;
-      if (friction_moves.empty()) {
-        friction_moves.resize(bodies.size());
-        friction_budget.assign(bodies.size(), 0.0);
+      if (friction_moves != nullptr) {
+        friction_moves->record(*bodies[static_cast<size_t>(body)], static_cast<size_t>(body), v, dv, dt);
       }
-      std::vector<Vec3>& moves = friction_moves[static_cast<size_t>(body)];
-      const Body& owner = *bodies[static_cast<size_t>(body)];
-      if (moves.empty()) moves.assign(owner.positions.size(), Vec3::Zero());
-      moves[static_cast<size_t>(v)] += dt * dv;
-      friction_budget[static_cast<size_t>(body)] += 0.5 * owner.masses[static_cast<size_t>(v)] * dv.squaredNorm();
     };
     auto apply = [&](const Vec3& j, bool move_positions) {
       if (w_x > 0.0) {
@@ -160,14 +150,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
   }
   // The limit (docs/stability.md M6a): a body's friction moves store at most their kinetic budget;
   // a rigid part stores nothing and is kept whole.
-  for (size_t i = 0; i < friction_moves.size(); ++i) {
-    if (friction_moves[i].empty()) continue;
-    Body& body = *bodies[i];
-    const std::vector<Vec3> deforming = friction_move_deforming_part(body, friction_moves[i]);
-    const double scale = friction_move_scale(body, deforming, friction_budget[i]);
-    if (scale >= 1.0) continue;
-    for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];
-  }
+  if (friction_moves != nullptr) friction_moves->limit(bodies);
   for (size_t i = 0; i < rigid.size(); ++i) {
     if (!rigid[i].ready || !rigid[i].free) continue;
     Body& body = *bodies[i];

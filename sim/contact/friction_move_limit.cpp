@@ -54,8 +54,8 @@ double move_energy(const Body& body, std::span<const Vec3> move) {
   return energy;
 }
 
-std::vector<Vec3> friction_move_deforming_part(const Body& body, std::span<const Vec3> move) {
-  std::vector<Vec3> remainder(move.begin(), move.end());
+void friction_move_deforming_part(const Body& body, std::span<const Vec3> move, std::vector<Vec3>& remainder) {
+  remainder.assign(move.begin(), move.end());
   double mass = 0.0;
   Vec3 centre = Vec3::Zero(), translation = Vec3::Zero();
   int moved = 0;
@@ -66,7 +66,7 @@ std::vector<Vec3> friction_move_deforming_part(const Body& body, std::span<const
     centre += body.masses[v] * body.positions[v];
     translation += body.masses[v] * move[v];
   }
-  if (moved < 3 || !(mass > 0.0)) return remainder;
+  if (moved < 3 || !(mass > 0.0)) return;
   centre /= mass;
   translation /= mass;
   // Small rotation theta minimising sum m |u - t - theta x r|^2: I theta = sum m r x (u - t).
@@ -83,12 +83,22 @@ std::vector<Vec3> friction_move_deforming_part(const Body& body, std::span<const
     if (move[v].squaredNorm() == 0.0) continue;
     remainder[v] -= translation + rotation.cross(body.positions[v] - centre);
   }
-  return remainder;
 }
 
 double friction_move_scale(const Body& body, std::span<const Vec3> move, double budget) {
   const double energy = move_energy(body, move);
   return energy > budget ? std::sqrt(budget / energy) : 1.0;
+}
+
+void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
+  for (size_t i = 0; i < touched.size(); ++i) {
+    if (!touched[i]) continue;
+    Body& body = *bodies[i];
+    friction_move_deforming_part(body, moves[i], deforming);
+    const double scale = friction_move_scale(body, deforming, budget[i]);
+    if (scale >= 1.0) continue;
+    for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];
+  }
 }
 
 }  // namespace pliant

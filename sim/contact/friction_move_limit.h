@@ -36,10 +36,37 @@ double vertex_stiffness_along(const Body& body, int vertex, const Vec3& directio
 double move_energy(const Body& body, std::span<const Vec3> move);
 
 /// The part of a body's friction moves `move` (m, one per vertex) that deforms the moved set S
-/// (the vertices with a move): `move` minus S's best rigid motion (translation + small rotation,
-/// mass-weighted least squares over S), zero off S. With fewer than 3 moved vertices S has no
-/// rigid motion of its own (one or two contacts moving alone deform the body): the whole move.
-std::vector<Vec3> friction_move_deforming_part(const Body& body, std::span<const Vec3> move);
+/// (the vertices with a move), written to `deforming` (resized): `move` minus S's best rigid
+/// motion (translation + small rotation, mass-weighted least squares over S), zero off S. With
+/// fewer than 3 moved vertices S has no rigid motion of its own (one or two contacts moving alone
+/// deform the body): the whole move.
+void friction_move_deforming_part(const Body& body, std::span<const Vec3> move, std::vector<Vec3>& deforming);
+
+/// Stage 5's record of the friction moves of a pass, per body slot (working storage reused across
+/// steps: no allocation once grown).
+struct FrictionMoveLedger {
+  std::vector<std::vector<Vec3>> moves;  ///< per body slot: dt dv summed per vertex (m); empty: none
+  std::vector<double> budget;            ///< per body slot: sum m |dv|^2 / 2 of its impulses (J)
+  std::vector<char> touched;             ///< per body slot: has a move this pass
+  std::vector<Vec3> deforming;           ///< scratch for friction_move_deforming_part
+  /// Starts a pass over `bodies` body slots.
+  void begin(size_t bodies) {
+    if (moves.size() < bodies) moves.resize(bodies);
+    budget.assign(bodies, 0.0);
+    touched.assign(bodies, 0);
+  }
+  /// Records the friction velocity change `dv` (m/s) of `vertex` of slot `slot`, moved by dt dv.
+  void record(const Body& body, size_t slot, int vertex, const Vec3& dv, double dt) {
+    if (!touched[slot]) {
+      touched[slot] = 1;
+      moves[slot].assign(body.positions.size(), Vec3::Zero());
+    }
+    moves[slot][static_cast<size_t>(vertex)] += dt * dv;
+    budget[slot] += 0.5 * body.masses[static_cast<size_t>(vertex)] * dv.squaredNorm();
+  }
+  /// Takes back (1 - friction_move_scale) of each touched body's deforming part.
+  void limit(std::span<Body* const> bodies);
+};
 
 /// Factor in (0, 1] on a body's friction moves: min(1, sqrt(budget / move_energy)), `budget` (J)
 /// the kinetic energy sum m |dv|^2 / 2 of the body's friction impulses; 1 where the move stores

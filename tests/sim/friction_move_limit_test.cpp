@@ -2,8 +2,9 @@
 // moves a vertex by dt dv besides changing its velocity. Moving one vertex alone stores
 // k u^2 / 2 (k its own stiffness), while the impulse removes only m dv^2 / 2 of kinetic energy; on
 // the 1 mg block with a sliver tet of Stability.SurfaceMilligramBodyWithASliver (omega dt in the
-// hundreds) the move stored thousands of times what it removed. friction_move_scale caps the move
-// at 1 / (omega dt) of dt dv (an experiment, off by default: it makes a sticking stiff block creep).
+// hundreds) the move stored thousands of times what it removed. The limit (ContactSettings::
+// limit_friction_move, default on) keeps a body's moved set's rigid motion whole and scales the
+// deforming rest so it stores at most sum m dv^2 / 2: one vertex alone is capped at 1 / (omega dt).
 // References: the deformation model's own energy of a one-vertex move, and the stage's energy
 // balance (algorithms.md: stage 5 is chosen to inject no energy).
 #include "sim/contact/friction_move_limit.h"
@@ -53,6 +54,41 @@ TEST(FrictionMoveLimit, VertexStiffnessIsTheModelsEnergyOfMovingOneVertex) {
       EXPECT_NEAR(energy_of_move(*body, v, d, u), 0.5 * k * u * u, 1e-4 * 0.5 * k * u * u) << body->name;
     }
   }
+}
+
+// A rigid friction move is kept whole (what the per-vertex cap got wrong: a sticking block's
+// vertices move together and store nothing). Reference: linear elasticity's strain of a
+// translation plus an infinitesimal rotation is zero, so the whole block's rigid move and its
+// bottom face's common translation have no deforming part and the limit leaves them unchanged,
+// while one vertex moved alone stores vertex_stiffness_along u^2 / 2 and is all deforming part.
+TEST(FrictionMoveLimit, RigidMoveOfAWholeBlockOrOfItsContactFaceIsUnchanged) {
+  World world;
+  const TetMeshPtr box_mesh = make_box_mesh({Vec3(kUpperSize, kUpperSize, kUpperHeight), 4, 4, 2});
+  BodyDef box{.name = "box", .mesh = box_mesh, .material = material(1e6, 0.45, 1000.0)};
+  Body& block = world.body(world.add_body(box));
+  const size_t n = block.positions.size();
+  const Vec3 t(2e-5, -1e-5, 0.5e-5), theta(1e-4, -2e-4, 3e-4), centre(0.001, 0.0, -0.002);  // m, rad, m
+  std::vector<Vec3> rigid(n), face(n, Vec3::Zero()), one(n, Vec3::Zero());
+  for (size_t v = 0; v < n; ++v) {
+    rigid[v] = t + theta.cross(block.positions[v] - centre);
+    if (std::abs(block.positions[v].z() + 0.5 * kUpperHeight) < 1e-12) face[v] = Vec3(t.x(), t.y(), 0.0);
+  }
+  one[0] = t;
+  const double one_energy = move_energy(block, one);
+  EXPECT_NEAR(one_energy, 0.5 * vertex_stiffness_along(block, 0, t.normalized()) * t.squaredNorm(),
+              1e-9 * one_energy);  // at rest the current and the rest shape agree
+  std::vector<Vec3> deforming;
+  for (const std::vector<Vec3>* move : {&rigid, &face}) {
+    friction_move_deforming_part(block, *move, deforming);
+    for (size_t v = 0; v < n; ++v) EXPECT_LE(deforming[v].norm(), 1e-12 * t.norm());
+    // Against any budget, however small, next to the one-vertex move's energy: scale 1.
+    EXPECT_EQ(friction_move_scale(block, deforming, 1e-12 * one_energy), 1.0);
+  }
+  EXPECT_LE(move_energy(block, rigid), 1e-20 * one_energy);  // the whole block's rigid move: nothing
+  // One vertex alone has no rigid part of its own: all of it deforms and it is capped.
+  friction_move_deforming_part(block, one, deforming);
+  EXPECT_EQ(deforming[0], t);
+  EXPECT_NEAR(friction_move_scale(block, one, 1e-2 * one_energy), 0.1, 1e-12);
 }
 
 /// Kinetic energy of a body (J).
@@ -123,7 +159,7 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
   const std::vector<Vec3> x0[2] = {upper.positions, lower.positions};
   const std::vector<Vec3> v0[2] = {upper.velocities, lower.velocities};
   const std::vector<VertexContact> contacts = {contact};
-  // Stage 5 from the same state, with the full move (every caller's default) and with the limit.
+  // Stage 5 from the same state, with the full move (limit off) and with the limit.
   struct Balance {
     double removed = 0.0, stored = 0.0, moved = 0.0;  // J, J, m
   };
@@ -135,8 +171,9 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
         upper.model->elastic_energy(upper.positions) + lower.model->elastic_energy(lower.positions);
     std::vector<ContactImpulse> impulses;
     std::vector<RigidModes> rigid;
+    FrictionMoveLedger ledger;
     apply_contact_velocity_update(world.bodies(), contacts, dt, true, {}, contacts.size(), impulses, rigid,
-                                  limit);
+                                  limit ? &ledger : nullptr);
     EXPECT_GT(impulses[0].friction.norm(), 0.0);  // friction acted
     Balance b;
     b.removed = ke0 - kinetic(upper) - kinetic(lower);
