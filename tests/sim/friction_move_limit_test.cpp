@@ -3,7 +3,7 @@
 // k u^2 / 2 (k its own stiffness), while the impulse removes only m dv^2 / 2 of kinetic energy; on
 // the 1 mg block with a sliver tet of Stability.SurfaceMilligramBodyWithASliver (omega dt in the
 // hundreds) the move stored thousands of times what it removed. The limit (ContactSettings::
-// limit_friction_move, default on) keeps a body's moved set's rigid motion whole and scales the
+// limit_friction_move, opt-in) keeps a body's moved set's rigid motion whole and scales the
 // deforming rest so it stores at most sum m dv^2 / 2: one vertex alone is capped at 1 / (omega dt).
 // References: the deformation model's own energy of a one-vertex move, and the stage's energy
 // balance (algorithms.md: stage 5 is chosen to inject no energy).
