@@ -142,7 +142,7 @@ BodyDef read_body(const JsonReader& j, const std::string& base_dir, size_t index
 ContactSettings read_contact(const JsonReader& j) {
   j.expect_keys({"method", "binary_search_iterations", "finishing_projection", "penalty_stiffness",
                  "penalty_damping", "friction", "held_force_fraction", "implicit_correction",
-                 "linearised_search"});
+                 "linearised_search", "limit_friction_move"});
   ContactSettings c;
   if (auto m = j.find("method")) c.method = contact_method_from_string(m->choice({"surface", "penalty", "none"}));
   if (auto it = j.find("binary_search_iterations")) {
@@ -156,6 +156,7 @@ ContactSettings read_contact(const JsonReader& j) {
   c.penalty_damping = j.non_negative_number_or("penalty_damping", c.penalty_damping);
   c.friction = j.boolean_or("friction", c.friction);
   c.linearised_search = j.boolean_or("linearised_search", c.linearised_search);
+  c.limit_friction_move = j.boolean_or("limit_friction_move", c.limit_friction_move);
   if (auto it = j.find("implicit_correction")) {
     // "off" | "stiff_partners" | "all" | "coupled"; the session-6 booleans stay valid (true: "all").
     if (it->is_string()) {

@@ -117,6 +117,13 @@ struct ContactSettings {
   /// coupled: the CG on the contact forces stops when every active contact's gap is within this of
   /// its target and no inactive one penetrates by more (m).
   double coupled_gap_tolerance = 1e-7;
+  /// Beyond the paper, opt-in (docs/stability.md, M6a): stage 5's friction moves dt dv of a body
+  /// are scaled so their deforming part (the moves minus the moved set's rigid fit) stores at most
+  /// the kinetic energy sum m |dv|^2 / 2 of its friction impulses. Off by default: on, it passes
+  /// both incline tests but fails Stability.SurfaceMilligramBodyWithASliver (30.6x) and
+  /// ImplicitContactCorrection.DropEnergyRatioAcrossCfl (7.03 vs 1.6) and changes the probe from
+  /// step 1388. false: every friction move is dt dv (session 6's stage 5, bit for bit).
+  bool limit_friction_move = false;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

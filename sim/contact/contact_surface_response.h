@@ -84,6 +84,7 @@ class ContactSurfaceResponse final : public ContactResponse {
   std::vector<PairContactForce> pairs_;             ///< this step's per-pair forces (scratch)
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
   std::vector<RigidModes> rigid_modes_;   ///< stage 5 scratch: rigid modes per body slot
+  FrictionMoveLedger friction_moves_;     ///< stage 5 scratch: friction moves per body slot (M6a)
 };
 
 }  // namespace pliant

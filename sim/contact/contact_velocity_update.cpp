@@ -14,6 +14,8 @@
 
 #include <Eigen/Dense>
 
+#include "sim/contact/friction_move_limit.h"
+
 namespace pliant {
 namespace {
 
@@ -26,7 +28,7 @@ double inverse_mass(const Body& body, int v) {
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
-                                   std::vector<RigidModes>& rigid_scratch) {
+                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves) {
   impulses.assign(contacts.size(), ContactImpulse{});
   // Rigid modes per body slot, only when some contact holds an impulse (the scratch keeps its
   // capacity between steps: no allocation once grown).
@@ -35,6 +37,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
   if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
     rigid.resize(bodies.size());
   }
+  if (friction_moves != nullptr) friction_moves->begin(bodies.size());
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];
@@ -57,12 +60,22 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     const double w_sum = w_x + w_p;
     if (w_sum <= 0.0) continue;  // both sides immovable
 
-    // Applies impulse j (on x; -j spread over the triangle) and moves positions by h dv if asked.
+    // Applies impulse j (on x; -j spread over the triangle) and moves positions by h dv if asked
+    // (with a friction_moves ledger the moves are recorded per body and scaled at the end of the pass,
+    // docs/stability.md M6a).
+    auto record_move = [&](int body, int v, const Vec3& dv) {
+      if (friction_moves != nullptr) {
+        friction_moves->record(*bodies[static_cast<size_t>(body)], static_cast<size_t>(body), v, dv, dt);
+      }
+    };
     auto apply = [&](const Vec3& j, bool move_positions) {
       if (w_x > 0.0) {
         const Vec3 dv = w_x * j;
         m.velocities[static_cast<size_t>(contact.vertex)] += dv;
-        if (move_positions) m.positions[static_cast<size_t>(contact.vertex)] += dt * dv;
+        if (move_positions) {
+          m.positions[static_cast<size_t>(contact.vertex)] += dt * dv;
+          record_move(contact.body, contact.vertex, dv);
+        }
       }
       for (int k = 0; k < 3; ++k) {
         const int y = tri[static_cast<size_t>(k)];
@@ -71,7 +84,10 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
         // Distribute so the contact point's velocity changes by -w_p j (minimum-norm split).
         const Vec3 dv = -b[k] * wy * j;
         n.velocities[static_cast<size_t>(y)] += dv;
-        if (move_positions) n.positions[static_cast<size_t>(y)] += dt * dv;
+        if (move_positions) {
+          n.positions[static_cast<size_t>(y)] += dt * dv;
+          record_move(contact.penetrated_body, y, dv);
+        }
       }
     };
 
@@ -132,6 +148,9 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     apply(j, true);
     impulses[c].friction = j;
   }
+  // The limit (docs/stability.md M6a): a body's friction moves store at most their kinetic budget;
+  // a rigid part stores nothing and is kept whole.
+  if (friction_moves != nullptr) friction_moves->limit(bodies);
   for (size_t i = 0; i < rigid.size(); ++i) {
     if (!rigid[i].ready || !rigid[i].free) continue;
     Body& body = *bodies[i];

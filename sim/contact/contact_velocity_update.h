@@ -24,6 +24,7 @@
 
 #include "sim/body.h"
 #include "sim/collision/contact_types.h"
+#include "sim/contact/friction_move_limit.h"
 #include "sim/step_report.h"
 
 namespace pliant {
@@ -78,10 +79,14 @@ struct RigidModes {
 /// held contact force already applied in this step's integration. Contacts from index
 /// `lingering_begin` on are held contacts that detection did not find again: their normal impulse
 /// may only shrink (take back the held one), never grow. `impulses` gets one entry per contact;
-/// `rigid_scratch` is working storage reused across calls.
+/// `rigid_scratch` is working storage reused across calls. With `friction_moves`
+/// (ContactSettings::limit_friction_move) a body's friction moves dt dv are recorded there and their
+/// deforming part scaled by friction_move_scale so it stores at most the kinetic energy of the
+/// body's friction impulses (docs/stability.md M6a); null: every move is dt dv (session 6's stage
+/// 5, bit for bit).
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
-                                   std::vector<RigidModes>& rigid_scratch);
+                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves = nullptr);
 
 }  // namespace pliant

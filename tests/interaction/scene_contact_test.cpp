@@ -1,5 +1,6 @@
 // The scene's "contact" object reads held_force_fraction (docs/scene-format.md): a value in [0, 1]
 // reaches the World's ContactSettings; outside, or of the wrong type, the error names its path.
+// Likewise the boolean limit_friction_move.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -33,6 +34,24 @@ TEST(SceneFormat, ContactHeldForceFractionReachesTheWorld) {
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find("/contact/held_force_fraction"), std::string::npos) << e.what();
     }
+  }
+}
+
+// contact.limit_friction_move (docs/stability.md M6a): off by default, a scene may turn it on; a
+// non-boolean names its path.
+TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
+  nlohmann::json j = probe_coarse_json();
+  EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.limit_friction_move);
+  j["contact"]["limit_friction_move"] = true;
+  const Scene scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_TRUE(scene.world.contact.limit_friction_move);
+  EXPECT_TRUE(instantiate_scene(scene).world->settings().contact.limit_friction_move);
+  j["contact"]["limit_friction_move"] = 0.5;
+  try {
+    parse_scene(j, "probe_coarse.json", ".");
+    ADD_FAILURE() << "no error for 0.5";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/contact/limit_friction_move"), std::string::npos) << e.what();
   }
 }
 

@@ -1,0 +1,104 @@
+#include "sim/contact/friction_move_limit.h"
+
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace pliant {
+
+double vertex_stiffness_along(const Body& body, int vertex, const Vec3& direction) {
+  const TetMesh& mesh = *body.mesh;
+  const auto& x = mesh.rest_positions();
+  const double mu = body.material.lame_mu(), lambda = body.material.lame_lambda();
+  double k = 0.0;
+  for (int t : mesh.vertex_tets(vertex)) {
+    const TetIndices& tet = mesh.tets()[static_cast<size_t>(t)];
+    Vec3 face[3];
+    int n = 0;
+    for (int a = 0; a < 4; ++a) {
+      if (tet[static_cast<size_t>(a)] != vertex)
+        face[n++] = x[static_cast<size_t>(tet[static_cast<size_t>(a)])];
+    }
+    const double volume = mesh.rest_volumes()[static_cast<size_t>(t)];
+    if (!(volume > 0.0)) continue;
+    // grad N of the vertex: the opposite face's area normal / (3 V) (its sign does not matter here).
+    const Vec3 g = 0.5 * (face[1] - face[0]).cross(face[2] - face[0]) / (3.0 * volume);
+    k += volume * (mu * g.squaredNorm() + (lambda + mu) * std::pow(g.dot(direction), 2));
+  }
+  return k;
+}
+
+double move_energy(const Body& body, std::span<const Vec3> move) {
+  const TetMesh& mesh = *body.mesh;
+  const double mu = body.material.lame_mu(), lambda = body.material.lame_lambda();
+  double energy = 0.0;
+  for (const TetIndices& tet : mesh.tets()) {
+    bool moved = false;
+    for (int v : tet) moved = moved || move[static_cast<size_t>(v)].squaredNorm() > 0.0;
+    if (!moved) continue;
+    const Vec3& x0 = body.positions[static_cast<size_t>(tet[0])];
+    Eigen::Matrix3d edges;  // columns x_a - x_0, a = 1..3
+    for (int a = 1; a < 4; ++a) edges.col(a - 1) = body.positions[static_cast<size_t>(tet[static_cast<size_t>(a)])] - x0;
+    const double volume = std::abs(edges.determinant()) / 6.0;
+    if (!(volume > 0.0)) continue;
+    // Rows of edges^-1 are grad N_1..3; grad N_0 = -(their sum). grad u = sum_a u_a grad N_a^T.
+    const Eigen::Matrix3d inverse = edges.inverse();
+    Eigen::Matrix3d grad_u = Eigen::Matrix3d::Zero();
+    const Vec3& u0 = move[static_cast<size_t>(tet[0])];
+    for (int a = 1; a < 4; ++a) {
+      grad_u += (move[static_cast<size_t>(tet[static_cast<size_t>(a)])] - u0) * inverse.row(a - 1);
+    }
+    const Eigen::Matrix3d strain = 0.5 * (grad_u + grad_u.transpose());
+    energy += volume * (mu * strain.squaredNorm() + 0.5 * lambda * std::pow(strain.trace(), 2));
+  }
+  return energy;
+}
+
+void friction_move_deforming_part(const Body& body, std::span<const Vec3> move, std::vector<Vec3>& remainder) {
+  remainder.assign(move.begin(), move.end());
+  double mass = 0.0;
+  Vec3 centre = Vec3::Zero(), translation = Vec3::Zero();
+  int moved = 0;
+  for (size_t v = 0; v < move.size(); ++v) {
+    if (move[v].squaredNorm() == 0.0) continue;
+    ++moved;
+    mass += body.masses[v];
+    centre += body.masses[v] * body.positions[v];
+    translation += body.masses[v] * move[v];
+  }
+  if (moved < 3 || !(mass > 0.0)) return;
+  centre /= mass;
+  translation /= mass;
+  // Small rotation theta minimising sum m |u - t - theta x r|^2: I theta = sum m r x (u - t).
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+  Vec3 moment = Vec3::Zero();
+  for (size_t v = 0; v < move.size(); ++v) {
+    if (move[v].squaredNorm() == 0.0) continue;
+    const Vec3 r = body.positions[v] - centre;
+    inertia += body.masses[v] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    moment += body.masses[v] * r.cross(move[v] - translation);
+  }
+  const Vec3 rotation = inertia.completeOrthogonalDecomposition().pseudoInverse() * moment;
+  for (size_t v = 0; v < move.size(); ++v) {
+    if (move[v].squaredNorm() == 0.0) continue;
+    remainder[v] -= translation + rotation.cross(body.positions[v] - centre);
+  }
+}
+
+double friction_move_scale(const Body& body, std::span<const Vec3> move, double budget) {
+  const double energy = move_energy(body, move);
+  return energy > budget ? std::sqrt(budget / energy) : 1.0;
+}
+
+void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
+  for (size_t i = 0; i < touched.size(); ++i) {
+    if (!touched[i]) continue;
+    Body& body = *bodies[i];
+    friction_move_deforming_part(body, moves[i], deforming);
+    const double scale = friction_move_scale(body, deforming, budget[i]);
+    if (scale >= 1.0) continue;
+    for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];
+  }
+}
+
+}  // namespace pliant
