@@ -96,7 +96,8 @@ struct ContactSettings {
   /// (kinematic, sleeping; not a body with fixed vertices) and whose centres separate at u along
   /// its held force F releases min(|F| dt, mu u) of the held impulse (mu the pair's reduced mass).
   /// Measured: two free blocks at 1 ms, late KE 4.9e-4 -> 3.3e-5 J (mu 0) but 1.4e-5 -> 3.3e-5 J
-  /// (mu 0.5); not resting either way, so off by default.
+  /// (mu 0.5) with session 6's linearised search; 4.1e-5 -> 2.2e-5 J (mu 0) with the default search;
+  /// not resting either way, so off by default.
   bool held_force_release = false;
   /// Beyond the paper, opt-in experiment (docs/stability.md, M1): where a body's pressure wave
   /// crosses more than a cell in the step (CFL c_p dt / h > 1), a vertex takes only 1/CFL^2 of the
