@@ -18,24 +18,13 @@
 #include <vector>
 
 #include "sim/contact/contact_surface_response.h"
-#include "sim/mesh/box_mesh.h"
 #include "sim/world.h"
+#include "support/block_stack.h"
 
 namespace pliant {
 namespace {
 
 constexpr double kG = 9.81;  // m/s^2, WorldSettings' default gravity
-
-Material stiff_block() {
-  Material m;
-  m.young_modulus = 1e6;
-  m.poisson_ratio = 0.3;
-  m.density = 1000.0;
-  m.mass_damping = 0.0;
-  m.stiffness_damping = 1e-3;
-  m.friction = 0.0;
-  return m;
-}
 
 /// Sums over the late steps (the last 2/7 of 0.7 s), both blocks (J).
 struct ChurnLedger {
@@ -65,19 +54,9 @@ ChurnLedger take_ledger(double dt, bool release) {
   contact.friction = false;
   contact.finishing_projection = true;
   contact.held_force_release = release;
-  const auto mesh = make_box_mesh({Vec3(0.03, 0.03, 0.03), 2, 2, 2});
-  std::vector<BodyId> ids;
+  const std::vector<BodyId> ids = add_block_stack(world, 2, 0.0);
   ChurnLedger out;
-  for (int k = 0; k < 2; ++k) {
-    BodyDef block{.name = "block" + std::to_string(k), .mesh = mesh, .material = stiff_block()};
-    block.pose.translation = Vec3(0.003 * k, -0.002 * k, 0.015 + 0.03 * k);
-    ids.push_back(world.add_body(block));
-    out.rest_floor += 0.5 * world.body(ids.back()).total_mass() * (kG * dt) * (kG * dt);
-  }
-  BodyDef floor{.name = "floor", .mesh = make_box_mesh({Vec3(0.5, 0.5, 0.02), 4, 4, 1}),
-                .material = stiff_block(), .motion = BodyMotion::kinematic};
-  floor.pose.translation = Vec3(0, 0, -0.01);
-  world.add_body(floor);
+  for (BodyId id : ids) out.rest_floor += 0.5 * world.body(id).total_mass() * (kG * dt) * (kG * dt);
   const Vec3 gravity = world.settings().gravity;
 
   auto energy = [&]() {

@@ -12,24 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "sim/mesh/box_mesh.h"
 #include "sim/world.h"
+#include "support/block_stack.h"
 
 namespace pliant {
 namespace {
 
 constexpr double kG = 9.81;  // m/s^2, WorldSettings' default gravity
-
-Material stiff_block(double mu) {
-  Material m;
-  m.young_modulus = 1e6;
-  m.poisson_ratio = 0.3;
-  m.density = 1000.0;
-  m.mass_damping = 0.0;
-  m.stiffness_damping = 1e-3;
-  m.friction = mu;
-  return m;
-}
 
 struct ChurnRun {
   double kinetic_late_max = 0.0;      ///< largest kinetic energy over the last 2/7 of the run (J)
@@ -62,22 +51,9 @@ ChurnRun run_stack(int blocks, double mu, double dt, bool fixed_base = false) {
   if (const char* env = std::getenv("PLIANT_CHURN_HELD_RELEASE"); env != nullptr && std::string(env) == "1") {
     world.settings().contact.held_force_release = true;
   }
-  const auto mesh = make_box_mesh({Vec3(0.03, 0.03, 0.03), 2, 2, 2});
-  std::vector<BodyId> ids;
+  const std::vector<BodyId> ids = add_block_stack(world, blocks, mu, fixed_base);
   double mass = 0.0;
-  for (int k = 0; k < blocks; ++k) {
-    BodyDef block{.name = "block" + std::to_string(k), .mesh = mesh, .material = stiff_block(mu)};
-    block.pose.translation = Vec3(0.003 * k, -0.002 * k, 0.015 + 0.03 * k);
-    for (int v = 0; fixed_base && k == 0 && v < mesh->vertex_count(); ++v) {
-      if (mesh->rest_positions()[static_cast<size_t>(v)].z() < -0.0149) block.fixed_vertices.push_back(v);
-    }
-    ids.push_back(world.add_body(block));
-    mass += world.body(ids.back()).total_mass();
-  }
-  BodyDef floor{.name = "floor", .mesh = make_box_mesh({Vec3(0.5, 0.5, 0.02), 4, 4, 1}),
-                .material = stiff_block(mu), .motion = BodyMotion::kinematic};
-  floor.pose.translation = Vec3(0, 0, -0.01);
-  world.add_body(floor);
+  for (BodyId id : ids) mass += world.body(id).total_mass();
 
   ChurnRun out;
   out.rest_floor = 0.5 * mass * (kG * dt) * (kG * dt);

@@ -179,6 +179,20 @@ void report(const char* name, const Counts& c, int samples) {
   EXPECT_LE(c.failed_edges, samples / 100 + 1);
 }
 
+// A unit box of one cell whose tet 0 is inverted (its vertex 0 reflected through the opposite
+// face's centroid); `inside` = tet 0's centroid before the reflection (m).
+Body box_with_tet_0_inverted(Vec3& inside) {
+  Body box{make_box_mesh({Vec3(1.0, 1.0, 1.0), 1, 1, 1}), {}};
+  box.x = box.mesh->rest_positions();
+  const auto& v = box.mesh->tets()[0];
+  inside = 0.25 * (box.x[static_cast<size_t>(v[0])] + box.x[static_cast<size_t>(v[1])] +
+                   box.x[static_cast<size_t>(v[2])] + box.x[static_cast<size_t>(v[3])]);
+  const Vec3 centroid = (box.x[static_cast<size_t>(v[1])] + box.x[static_cast<size_t>(v[2])] +
+                         box.x[static_cast<size_t>(v[3])]) / 3.0;
+  box.x[static_cast<size_t>(v[0])] = 2.0 * centroid - box.x[static_cast<size_t>(v[0])];
+  return box;
+}
+
 TEST(TetWalk, JitteredBoxMatchesBvh) {
   for (unsigned seed : {1u, 2u}) {
     const Counts c = check_body(jittered_box(seed), seed, 1500);
@@ -260,15 +274,8 @@ TEST(TetWalk, FacePlanesCacheGivesTheSameWalksAndIsRenewedPerPose) {
     EXPECT_EQ(cache_differences(b, planes, 23, 600), 0);
   }
   // An inverted tet fails with the cache too.
-  Body box{make_box_mesh({Vec3(1.0, 1.0, 1.0), 1, 1, 1}), {}};
-  box.x = box.mesh->rest_positions();
-  const auto& v = box.mesh->tets()[0];
-  const Vec3 p = 0.25 * (box.x[static_cast<size_t>(v[0])] + box.x[static_cast<size_t>(v[1])] +
-                         box.x[static_cast<size_t>(v[2])] + box.x[static_cast<size_t>(v[3])]);
-  const Vec3 centroid = (box.x[static_cast<size_t>(v[1])] + box.x[static_cast<size_t>(v[2])] +
-                         box.x[static_cast<size_t>(v[3])]) /
-                        3.0;
-  box.x[static_cast<size_t>(v[0])] = 2.0 * centroid - box.x[static_cast<size_t>(v[0])];
+  Vec3 p;
+  const Body box = box_with_tet_0_inverted(p);
   TetFacePlanes planes;
   planes.new_pose(box.mesh->tet_count());
   TetWalkExit exit;
@@ -277,19 +284,14 @@ TEST(TetWalk, FacePlanesCacheGivesTheSameWalksAndIsRenewedPerPose) {
 }
 
 TEST(TetWalk, InvertedTetFailsInsteadOfAnsweringWrongly) {
-  Body box{make_box_mesh({Vec3(1.0, 1.0, 1.0), 1, 1, 1}), {}};
-  box.x = box.mesh->rest_positions();
-  const auto& v = box.mesh->tets()[0];
-  const Vec3 p = 0.25 * (box.x[static_cast<size_t>(v[0])] + box.x[static_cast<size_t>(v[1])] +
-                         box.x[static_cast<size_t>(v[2])] + box.x[static_cast<size_t>(v[3])]);
-  // Invert tet 0: reflect its vertex 0 through the opposite face's centroid.
-  const Vec3 centroid = (box.x[static_cast<size_t>(v[1])] + box.x[static_cast<size_t>(v[2])] +
-                         box.x[static_cast<size_t>(v[3])]) / 3.0;
-  box.x[static_cast<size_t>(v[0])] = 2.0 * centroid - box.x[static_cast<size_t>(v[0])];
+  Vec3 p;
+  Body box = box_with_tet_0_inverted(p);
   TetWalkExit exit;
   EXPECT_EQ(walk_to_surface(*box.mesh, box.x, 0, p, Vec3(1, 0, 0), 10.0, 100, exit), TetWalkResult::failed);
-  // Flat tet: all four corners on one plane.
-  box.x[static_cast<size_t>(v[0])] = centroid;
+  // Flat tet: all four corners on one plane (vertex 0 at the opposite face's centroid).
+  const auto& v = box.mesh->tets()[0];
+  box.x[static_cast<size_t>(v[0])] = (box.x[static_cast<size_t>(v[1])] + box.x[static_cast<size_t>(v[2])] +
+                                      box.x[static_cast<size_t>(v[3])]) / 3.0;
   EXPECT_EQ(walk_to_surface(*box.mesh, box.x, 0, p, Vec3(1, 0, 0), 10.0, 100, exit), TetWalkResult::failed);
 }
 
