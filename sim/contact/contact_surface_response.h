@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "sim/contact/contact_response.h"
@@ -59,8 +60,9 @@ class ContactSurfaceResponse final : public ContactResponse {
   /// normal impulse (N s) each one's held force applied in this step.
   void gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
                        bool warm_start);
-  /// Stores `fraction` of this step's normal contact forces for the next integration.
-  void hold_forces(std::span<Body* const> bodies, double dt, double fraction);
+  /// Stores `fraction` of this step's normal contact forces for the next integration; with
+  /// `record_directions` (the release needs them) also each held force's unit direction.
+  void hold_forces(std::span<Body* const> bodies, double dt, double fraction, bool record_directions);
   /// ContactSettings::held_force_release: per body pair whose centres of mass separate along its
   /// held force, scales that pair's held forces down by the impulse the separation carries.
   void release_separating_pairs(std::span<Body* const> bodies, double dt);
@@ -73,8 +75,10 @@ class ContactSurfaceResponse final : public ContactResponse {
   std::vector<VertexContact> saved_held_contacts_;
   std::vector<double> saved_held_normal_force_;
   std::vector<char> held_used_;               ///< scratch: held contact found again this step
-  std::vector<char> pair_done_;               ///< scratch: held contact's pair already released
+  std::vector<size_t> pair_order_;            ///< scratch: held contacts grouped by body pair
+  std::vector<std::pair<size_t, size_t>> pair_groups_;  ///< scratch: [begin, end) of each pair in pair_order_
   std::vector<Vec3> held_direction_;          ///< scratch: unit held force on the vertex, per held contact
+                                              ///< (filled only for the release)
   std::vector<VertexContact> all_contacts_;   ///< this step's contacts, then the lingering ones
   std::vector<double> held_impulses_;         ///< N s per entry of all_contacts_
   std::vector<Vec3> region_force_;            ///< N, internal force per region vertex (scratch)
