@@ -118,19 +118,22 @@ const Vec3& PenetrationDepthSolver::face_cross(Surface& surface, int triangle) {
   return c;
 }
 
-const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
+void PenetrationDepthSolver::compute_vertex_normal(Surface& surface, int v) {
+  // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
+  // ascending triangle order (vertex_surface_triangles is sorted), then normalised. Each face's
+  // cross product is computed once per pose and shared by its three corners (same values).
   Vec3& n = surface.vertex_normals[static_cast<size_t>(v)];
-  if (surface.normal_epoch[static_cast<size_t>(v)] != surface.pose_key) {
-    // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
-    // ascending triangle order (vertex_surface_triangles is sorted), then normalised. Each face's
-    // cross product is computed once per pose and shared by its three corners (same values).
-    n.setZero();
-    for (int t : surface.mesh->vertex_surface_triangles(v)) n += face_cross(surface, t);
-    const double len = n.norm();
-    if (len > 0.0) n /= len;
-    surface.normal_epoch[static_cast<size_t>(v)] = surface.pose_key;
-  }
-  return n;
+  n.setZero();
+  for (int t : surface.mesh->vertex_surface_triangles(v)) n += face_cross(surface, t);
+  const double len = n.norm();
+  if (len > 0.0) n /= len;
+  surface.normal_epoch[static_cast<size_t>(v)] = surface.pose_key;
+}
+
+// The common case (normal already computed in this pose) inline in smoothed_normal.
+inline const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
+  if (surface.normal_epoch[static_cast<size_t>(v)] != surface.pose_key) compute_vertex_normal(surface, v);
+  return surface.vertex_normals[static_cast<size_t>(v)];
 }
 
 Vec3 PenetrationDepthSolver::smoothed_normal(Surface& surface, const SurfacePoint& hit) {

@@ -120,6 +120,8 @@ class PenetrationDepthSolver {
                    std::span<const int> group);
   Vec3 smoothed_normal(Surface& surface, const SurfacePoint& hit);
   const Vec3& vertex_normal(Surface& surface, int v);
+  /// Computes vertex v's smoothed normal at this pose into surface.vertex_normals.
+  void compute_vertex_normal(Surface& surface, int v);
   /// (b - a) x (c - a) of a surface triangle at the current pose (computed once per pose).
   const Vec3& face_cross(Surface& surface, int triangle);
 

@@ -5,9 +5,19 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace pliant {
 namespace {
+
+// Aabb::overlaps (closed boxes), one comparison at a time so a box apart on the first axis costs
+// one or two comparisons; the same predicate (also false for NaN), so the same boxes pass.
+inline bool boxes_meet(const Aabb& a, const Aabb& b) {
+  return a.min[0] <= b.max[0] && b.min[0] <= a.max[0] && a.min[1] <= b.max[1] && b.min[1] <= a.max[1] &&
+         a.min[2] <= b.max[2] && b.min[2] <= a.max[2];
+}
 
 // A ray with its reciprocal direction precomputed for slab tests. Direction components below 1e-30
 // count as zero (no division, so no overflow or divide-by-zero trap).
@@ -287,7 +297,9 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
     const int m = std::min(kFanChunk, total - begin);
     // Segment boxes as separate coordinate arrays, so a triangle box is tested against all of them
     // without branches (the outcome is hard to predict).
-    double seg_min[3][kFanChunk], seg_max[3][kFanChunk];
+    // Padded to an even count with empty boxes (min +inf, max -inf: they meet nothing), so the mask
+    // is built two segments at a time.
+    alignas(16) double seg_min[3][kFanChunk], seg_max[3][kFanChunk];
     Vec3 dir[kFanChunk];
     double best_t[kFanChunk], dir_squared[kFanChunk];
     int best_tri[kFanChunk];
@@ -307,6 +319,16 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
       best_tri[i] = -1;
       best_bary[i] = Vec3::Zero();
     }
+    // Self-collision only: some segment skips the triangles holding its ends.
+    bool any_exclude = exclude_end >= 0;
+    for (int i = 0; i < m; ++i) any_exclude = any_exclude || exclude_origins[static_cast<size_t>(begin + i)] >= 0;
+    const int padded = (m + 1) & ~1;
+    for (int i = m; i < padded; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        seg_min[k][i] = std::numeric_limits<double>::infinity();
+        seg_max[k][i] = -std::numeric_limits<double>::infinity();
+      }
+    }
     // Node boxes are inflated by slack_ (lazy refit): inflate the fan's box instead.
     Aabb node_query = fan;
     if (slack_ > 0.0) {
@@ -322,7 +344,7 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
     while (top > 0) {
       const int n = stack[--top];
       const Node& node = nodes_[static_cast<size_t>(n)];
-      if (!node.box.overlaps(node_query)) continue;
+      if (!boxes_meet(node.box, node_query)) continue;
       if (node.count == 0) {
         stack[top++] = node.first;
         stack[top++] = n + 1;
@@ -331,18 +353,34 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
       ensure_leaf(n);
       for (int j = node.first; j < node.first + node.count; ++j) {
         const Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
-        if (!box.overlaps(fan)) continue;
+        if (!boxes_meet(box, fan)) continue;
+        // Bit i: the triangle's box meets segment i's box (the same six closed comparisons per
+        // segment, two segments per SSE2 compare; padding segments never meet).
         unsigned mask = 0;
-        for (int i = 0; i < m; ++i) {
+#if defined(__SSE2__)
+        const __m128d min_x = _mm_set1_pd(box.min[0]), min_y = _mm_set1_pd(box.min[1]), min_z = _mm_set1_pd(box.min[2]);
+        const __m128d max_x = _mm_set1_pd(box.max[0]), max_y = _mm_set1_pd(box.max[1]), max_z = _mm_set1_pd(box.max[2]);
+        for (int i = 0; i < padded; i += 2) {
+          __m128d meets = _mm_and_pd(_mm_cmple_pd(min_x, _mm_load_pd(&seg_max[0][i])),
+                                     _mm_cmple_pd(_mm_load_pd(&seg_min[0][i]), max_x));
+          meets = _mm_and_pd(meets, _mm_and_pd(_mm_cmple_pd(min_y, _mm_load_pd(&seg_max[1][i])),
+                                               _mm_cmple_pd(_mm_load_pd(&seg_min[1][i]), max_y)));
+          meets = _mm_and_pd(meets, _mm_and_pd(_mm_cmple_pd(min_z, _mm_load_pd(&seg_max[2][i])),
+                                               _mm_cmple_pd(_mm_load_pd(&seg_min[2][i]), max_z)));
+          mask |= static_cast<unsigned>(_mm_movemask_pd(meets)) << i;
+        }
+#else
+        for (int i = 0; i < padded; ++i) {
           const bool meets = (box.min[0] <= seg_max[0][i]) & (seg_min[0][i] <= box.max[0]) &
                              (box.min[1] <= seg_max[1][i]) & (seg_min[1][i] <= box.max[1]) &
                              (box.min[2] <= seg_max[2][i]) & (seg_min[2][i] <= box.max[2]);
           mask |= static_cast<unsigned>(meets) << i;
         }
+#endif
         const int tri = order_[static_cast<size_t>(j)];
         for (; mask != 0; mask &= mask - 1) {
           const int i = std::countr_zero(mask);
-          if (excluded(tri, exclude_origins[static_cast<size_t>(begin + i)], exclude_end)) continue;
+          if (any_exclude && excluded(tri, exclude_origins[static_cast<size_t>(begin + i)], exclude_end)) continue;
           TriangleHit h;
           if (ray_triangle_intersection(origins[static_cast<size_t>(begin + i)], dir[i], dir_squared[i],
                                         prepared_[static_cast<size_t>(j)], 0.0, best_t[i], h)) {
