@@ -9,7 +9,7 @@
 //   v+ = v + dv, x+ = x + h v+. Solved by CG preconditioned by symmetric block Gauss-Seidel in
 //   Eisenstat's form (session 4; block-Jacobi with the matrix-free product or on request),
 //   warm-started from the extrapolation of the last two dv; fixed vertices are projected out (their
-//   rows and columns are zero, dv = 0).
+//   rows and columns are zero, dv = 0). Session 8: the iteration in AVX2/FMA, fused_ssor_kernels.h.
 // - K' is assembled once per step into 3x3-block CSR rows (by vertex, upper triangle), row by row
 //   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
