@@ -521,7 +521,8 @@ struct SsorSweeps {
   const char* fixed;
   double s;  ///< h (beta + h)
   size_t n;
-  /// Block products by the AVX2/FMA kernels (fused_ssor_kernels.h; session 8), else the exact ones.
+  /// The scatter by the AVX2/FMA kernel (fused_ssor_kernels.h; session 8), else the exact one (the
+  /// solve's first forward sweep and its true-residual check; the iterations call the kernels).
   bool fused = false;
 
 #if defined(__SSE2__)
@@ -551,19 +552,13 @@ struct SsorSweeps {
       // stream (perf: the block loads stalled, 13% of solve_ssor's samples on one instruction).
       if (i >= kBackwardPrefetchRows) prefetch_row(i - kBackwardPrefetchRows);
 #endif
-      if (fused) {
-        double a[3];
-        fused_gather_row(blocks, cols, static_cast<size_t>(offsets[i]) + 1, last, T, a);
-        a0 = a[0], a1 = a[1], a2 = a[2];
-      } else {
-        for (auto b = static_cast<size_t>(offsets[i]) + 1; b < last; ++b) {
-          const auto j = static_cast<size_t>(cols[b]);
-          const double* B = blocks + 9 * b;
-          const double p0 = T[3 * j], p1 = T[3 * j + 1], p2 = T[3 * j + 2];
-          a0 += B[0] * p0 + B[3] * p1 + B[6] * p2;
-          a1 += B[1] * p0 + B[4] * p1 + B[7] * p2;
-          a2 += B[2] * p0 + B[5] * p1 + B[8] * p2;
-        }
+      for (auto b = static_cast<size_t>(offsets[i]) + 1; b < last; ++b) {
+        const auto j = static_cast<size_t>(cols[b]);
+        const double* B = blocks + 9 * b;
+        const double p0 = T[3 * j], p1 = T[3 * j + 1], p2 = T[3 * j + 2];
+        a0 += B[0] * p0 + B[3] * p1 + B[6] * p2;
+        a1 += B[1] * p0 + B[4] * p1 + B[7] * p2;
+        a2 += B[2] * p0 + B[5] * p1 + B[8] * p2;
       }
       t[i] = D_inverse[i] * (u[i] - s * Vec3(a0, a1, a2));
     }

@@ -50,7 +50,9 @@ PLIANT_AVX2_FMA inline double horizontal_sum(__m256d x) {
 /// Lanes 0..2 of x, lane 3 zero.
 PLIANT_AVX2_FMA inline __m256d clear_lane3(__m256d x) { return _mm256_blend_pd(x, _mm256_setzero_pd(), 0x8); }
 
-/// sum_b B_b t_{cols[b]} over [first, last) (lane 3 not zero).
+/// sum_b B_b t_{cols[b]} over [first, last) (lane 3 not zero). Three accumulators (one per block
+/// column) keep the FMA chains independent: 4 cycles per block instead of 12. Lane 3 of the first
+/// two column loads is the next column's first entry, a finite product that is never stored.
 PLIANT_AVX2_FMA inline __m256d gather(const double* blocks, const int* cols, size_t first, size_t last,
                                       const double* t) {
   __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), a2 = _mm256_setzero_pd();
@@ -84,14 +86,6 @@ PLIANT_AVX2_FMA inline void scatter(const double* blocks, const int* cols, size_
 }
 
 }  // namespace
-
-// Three accumulators (one per block column) keep the FMA chains independent: 4 cycles per block
-// instead of 12. Lane 3 of the first two column loads is the next column's first entry, a finite
-// product that is never stored.
-PLIANT_AVX2_FMA void fused_gather_row(const double* blocks, const int* cols, size_t first, size_t last,
-                                      const double* t, double out[3]) {
-  store3(out, gather(blocks, cols, first, last, t));
-}
 
 // (B^T y)_k = c_k . y for the columns c_k: the products c_k * y lane-wise (y's lane 3 zero, so the
 // loaded fourth entries drop out), then hadd pairs (c0, c1) and (c2, c2), and the 128-bit halves
@@ -173,10 +167,6 @@ PLIANT_AVX2_FMA void fused_direction_update(size_t n, const double* Dr, double b
 #else
 
 bool fused_sweeps_available() { return false; }
-
-void fused_gather_row(const double*, const int*, size_t, size_t, const double*, double out[3]) {
-  out[0] = out[1] = out[2] = 0.0;
-}
 
 void fused_scatter_row(const double*, const int*, size_t, size_t, double, double, double, double*) {}
 

@@ -20,11 +20,6 @@ namespace pliant {
 /// True when this CPU runs the AVX2 + FMA kernels below.
 bool fused_sweeps_available();
 
-/// out = sum over blocks b in [first, last) of B_b t_{cols[b]} (B_b column-major 3x3 in blocks,
-/// t packed xyz per vertex). Only on a CPU where fused_sweeps_available().
-void fused_gather_row(const double* blocks, const int* cols, size_t first, size_t last, const double* t,
-                      double out[3]);
-
 /// acc_{cols[b]} += B_b^T y for blocks b in [first, last) (acc packed xyz per vertex). Only on a
 /// CPU where fused_sweeps_available().
 void fused_scatter_row(const double* blocks, const int* cols, size_t first, size_t last, double y0, double y1,
