@@ -181,6 +181,8 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
   CorotationalFem model(beam.mesh, beam.material, settings, product);
   if (arg == 2) model.set_preconditioner(Preconditioner::block_jacobi);
   if (arg == 3) model.set_stiffness_rotation_tolerance(0.0);
+  if (arg == 5) model.set_fused_sweeps(false);
+  if (arg == 6) model.set_fused_sweeps(true);
   beam.settle(model);
   if (arg == 4) {  // the same settled state, then no iteration
     ModelAccuracy accuracy = model.accuracy();
@@ -206,9 +208,11 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
                  : arg == 1 ? "assembled, ssor"
                  : arg == 2 ? "assembled, block_jacobi"
                  : arg == 3 ? "assembled, ssor, no K' reuse"
-                            : "assembled, ssor, no iteration");
+                 : arg == 4 ? "assembled, ssor, no iteration"
+                 : arg == 5 ? "assembled, ssor, exact sweeps"
+                            : "assembled, ssor, fused sweeps");
 }
-BENCHMARK(BM_CorotationalImplicitStep)->DenseRange(0, 4)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CorotationalImplicitStep)->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
 
 // The same step solved to a relative residual instead of a fixed iteration count (session 4): arg
 // 0 to the residual that 20 block-Jacobi iterations reach on this step (measured 0.428, see

@@ -9,6 +9,7 @@
 #include <xmmintrin.h>
 #endif
 
+#include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/preconditioned_cg.h"
 #include "sim/model/rotation_extraction.h"
 
@@ -53,7 +54,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       alpha_(material.mass_damping),
       beta_(material.stiffness_damping),
       accuracy_(settings.accuracy),
-      product_(product) {
+      product_(product),
+      fused_sweeps_(fused_sweeps_available()) {
   const auto& X = mesh_->rest_positions();
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   rest_shape_inverse_.resize(nt);
@@ -519,6 +521,9 @@ struct SsorSweeps {
   const char* fixed;
   double s;  ///< h (beta + h)
   size_t n;
+  /// The scatter by the AVX2/FMA kernel (fused_ssor_kernels.h; session 8), else the exact one (the
+  /// solve's first forward sweep and its true-residual check; the iterations call the kernels).
+  bool fused = false;
 
 #if defined(__SSE2__)
   /// Rows ahead of the backward sweep whose blocks it asks the cache for (session 7).
@@ -581,6 +586,10 @@ struct SsorSweeps {
   /// broadcast once per row; the lanes compute the scalar expressions, bit for bit).
   void scatter_transposed(size_t i, double y0, double y1, double y2, double* A) const {
     const auto last = static_cast<size_t>(offsets[i + 1]);
+    if (fused) {
+      fused_scatter_row(blocks, cols, static_cast<size_t>(offsets[i]) + 1, last, y0, y1, y2, A);
+      return;
+    }
 #if defined(__SSE2__)
     const __m128d v0 = _mm_set1_pd(y0), v1 = _mm_set1_pd(y1), v2 = _mm_set1_pd(y2);
     for (auto b = static_cast<size_t>(offsets[i]) + 1; b < last; ++b) {
@@ -715,6 +724,8 @@ CorotationalFem::CgOutcome CorotationalFem::solve_jacobi(double residual, double
   return {o.iterations, o.residual};
 }
 
+void CorotationalFem::set_fused_sweeps(bool on) { fused_sweeps_ = on && fused_sweeps_available(); }
+
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)
 // in Eisenstat's form (Eisenstat 1981; Saad, Iterative Methods for Sparse Linear Systems, 9.2.3):
 // with A = (D + L) + (D + L^T) - D, the product A p needs no pass of its own. The recurrences run on
@@ -730,7 +741,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   const size_t n = dv_.size();
   const SsorSweeps sweeps{blocks_.data()->data(), block_cols_.data(), block_row_offsets_.data(),
                           diagonal_system_blocks_.data(), preconditioner_.data(), fixed.data(),
-                          stiffness_scale, n};
+                          stiffness_scale, n, fused_sweeps_};
   // r~ = (D + L)^-1 r; p^ = D r~.
   sweeps.forward([&](size_t i) { return r_[i]; }, [&](size_t i, const Vec3& y) { r_[i] = y; }, kv_.data());
   double rz = 0.0;
@@ -742,24 +753,33 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   double scale = rz > 0.0 ? residual / std::sqrt(rz) : 0.0;
   const double tolerance = accuracy_.solver_tolerance;
   int it = 0;
+  const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
+                              sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n};
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
-    sweeps.backward(p_.data(), z_.data());  // t
-    double pq = 0.0;
-    sweeps.forward([&](size_t i) { return Vec3(p_[i] - diagonal_system_blocks_[i] * z_[i]); },
-                   [&](size_t i, const Vec3& y) {
-                     q_[i] = z_[i] + y;
-                     pq += p_[i].dot(q_[i]);
-                   },
-                   kv_.data());  // w
-    if (!(pq > 0.0)) break;
-    const double a = rz / pq;
-    double rz_next = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      dv_[i] += a * z_[i];
-      r_[i] -= a * q_[i];
-      rhs_[i] = diagonal_system_blocks_[i] * r_[i];  // D r~ (the right-hand side is not needed any more)
-      rz_next += r_[i].dot(rhs_[i]);
+    double pq = 0.0, rz_next = 0.0, a = 0.0;
+    if (fused_sweeps_) {  // the same iteration, AVX2/FMA (fused_ssor_kernels.h)
+      pq = fused_eisenstat_sweeps(fused, p_.data()->data(), z_.data()->data(), q_.data()->data(), kv_.data()->data());
+      if (!(pq > 0.0)) break;
+      a = rz / pq;
+      rz_next = fused_cg_update(fused, a, z_.data()->data(), q_.data()->data(), dv_.data()->data(),
+                                r_.data()->data(), rhs_.data()->data());
+    } else {
+      sweeps.backward(p_.data(), z_.data());  // t
+      sweeps.forward([&](size_t i) { return Vec3(p_[i] - diagonal_system_blocks_[i] * z_[i]); },
+                     [&](size_t i, const Vec3& y) {
+                       q_[i] = z_[i] + y;
+                       pq += p_[i].dot(q_[i]);
+                     },
+                     kv_.data());  // w
+      if (!(pq > 0.0)) break;
+      a = rz / pq;
+      for (size_t i = 0; i < n; ++i) {
+        dv_[i] += a * z_[i];
+        r_[i] -= a * q_[i];
+        rhs_[i] = diagonal_system_blocks_[i] * r_[i];  // D r~ (the right-hand side is not needed any more)
+        rz_next += r_[i].dot(rhs_[i]);
+      }
     }
     ++it;
     residual = scale * std::sqrt(std::max(rz_next, 0.0));
@@ -771,7 +791,11 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     }
     const double b = rz_next / rz;
     rz = rz_next;
-    for (size_t i = 0; i < n; ++i) p_[i] = rhs_[i] + b * p_[i];
+    if (fused_sweeps_) {
+      fused_direction_update(n, rhs_.data()->data(), b, p_.data()->data());
+    } else {
+      for (size_t i = 0; i < n; ++i) p_[i] = rhs_[i] + b * p_[i];
+    }
   }
   return {it, residual};
 }

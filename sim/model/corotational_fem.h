@@ -9,7 +9,7 @@
 //   v+ = v + dv, x+ = x + h v+. Solved by CG preconditioned by symmetric block Gauss-Seidel in
 //   Eisenstat's form (session 4; block-Jacobi with the matrix-free product or on request),
 //   warm-started from the extrapolation of the last two dv; fixed vertices are projected out (their
-//   rows and columns are zero, dv = 0).
+//   rows and columns are zero, dv = 0). Session 8: the iteration in AVX2/FMA, fused_ssor_kernels.h.
 // - K' is assembled once per step into 3x3-block CSR rows (by vertex, upper triangle), row by row
 //   (each vertex's blocks summed from the tets around it), from the rotated shape gradients r_j = R g_j:
 //   R K_ij R^T = V (mu (r_i . r_j) I + mu r_j r_i^T + lambda r_i r_j^T), K_ji = K_ij^T. The block
@@ -105,6 +105,12 @@ class CorotationalFem final : public DeformationModel {
   void set_preconditioner(Preconditioner preconditioner) { preconditioner_kind_ = preconditioner; }
   /// The CG preconditioner asked for (the matrix-free product always runs block-Jacobi).
   Preconditioner preconditioner() const { return preconditioner_kind_; }
+  /// SSOR sweeps with the AVX2/FMA block kernels (session 8; on by default where the CPU has them):
+  /// the same solve rounded differently, within the bound of docs/deformation-models.md "Session 8".
+  /// false: the exact sweeps, bit for bit the solve before. Ignored where the CPU lacks AVX2/FMA.
+  void set_fused_sweeps(bool on);
+  /// True when the SSOR sweeps run the AVX2/FMA kernels.
+  bool fused_sweeps() const { return fused_sweeps_; }
   /// True while the assembled K' matches the current rotations: set inside advance and by
   /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
   /// and by a query's full pass.
@@ -250,6 +256,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
   std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
+  bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: on where available)
 
   // Local queries (sim/model/corotational_local_query.cpp): each tet around the asked vertices is
   // evaluated once per query, into a slot; buffers sized on first use and kept.

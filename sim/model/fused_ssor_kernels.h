@@ -1,0 +1,55 @@
+// The SSOR sweeps' per-block kernels with fused multiply-adds in 256-bit lanes (AVX2 + FMA),
+// chosen at run time (session 8, issue #3). Design note: the exact sweeps
+// (corotational_fem.cpp, SsorSweeps) evaluate every 3x3 block product in scalar (or paired SSE2)
+// arithmetic in one fixed order, ~35 instructions per block visit. Here a block's three columns
+// are one 4-lane load each (the fourth lane is ignored or masked to zero):
+//   gather  a += B t_j   (backward sweep): three FMAs into three accumulators, one per column;
+//   scatter acc_j += B^T y (forward sweep): the column dot products c_k . y by two horizontal adds.
+// The sums are the same but rounded differently (FMA keeps the product unrounded, the order of
+// the terms differs), so the solve's iterates differ from the exact path's in the last bits and
+// the CG residual test decides the rest: an approximation under the project's rule (tolerance,
+// measured bound and test in docs/deformation-models.md "Session 8"; CorotationalFem's
+// set_fused_sweeps(false) is the exact path bit for bit). Compiled for avx2/fma by function
+// attribute, so the portable build keeps running on CPUs without them (fused_sweeps_available()).
+#pragma once
+
+#include <cstddef>
+
+namespace pliant {
+
+/// True when this CPU runs the AVX2 + FMA kernels below.
+bool fused_sweeps_available();
+
+/// acc_{cols[b]} += B_b^T y for blocks b in [first, last) (acc packed xyz per vertex). Only on a
+/// CPU where fused_sweeps_available().
+void fused_scatter_row(const double* blocks, const int* cols, size_t first, size_t last, double y0, double y1,
+                       double y2, double* acc);
+
+/// The system of the SSOR sweeps (SsorSweeps in corotational_fem.cpp): A = D + L + L^T with the
+/// upper blocks s K'_ij in CSR rows (row i: [offsets[i], offsets[i + 1]), the first K'_ii), 3x3
+/// diagonal blocks D_i and their inverses (column-major), fixed rows decoupled (D_i = I).
+struct FusedSsorSystem {
+  const double* blocks;     ///< K' upper-triangle blocks, column-major 3x3
+  const int* cols;          ///< block column (vertex) index
+  const int* offsets;       ///< n + 1 row offsets
+  const double* D;          ///< n diagonal blocks of A
+  const double* D_inverse;  ///< their inverses
+  const char* fixed;        ///< nonzero: a fixed (decoupled) row
+  double s;                 ///< h (beta + h)
+  size_t n;                 ///< rows (vertices)
+};
+
+/// One SSOR-PCG iteration's sweeps in Eisenstat's form (corotational_fem.cpp, solve_ssor), vectors
+/// packed xyz per vertex: t = (D + L^T)^-1 p (backward), then q = t + (D + L)^-1 (p - D t)
+/// (forward; acc is n entries of scratch); returns p . q. Only where fused_sweeps_available().
+double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const double* p, double* t, double* q, double* acc);
+
+/// The CG update after the sweeps: dv += a z, r -= a q, Dr = D r; returns r . Dr. Only where
+/// fused_sweeps_available().
+double fused_cg_update(const FusedSsorSystem& sys, double a, const double* z, const double* q, double* dv, double* r,
+                       double* Dr);
+
+/// p = Dr + b p (the next direction). Only where fused_sweeps_available().
+void fused_direction_update(size_t n, const double* Dr, double b, double* p);
+
+}  // namespace pliant
