@@ -51,7 +51,18 @@ ChurnRun run_stack(int blocks, double mu, double dt, bool fixed_base = false) {
   if (const char* env = std::getenv("PLIANT_CHURN_HELD_RELEASE"); env != nullptr && std::string(env) == "1") {
     world.settings().contact.held_force_release = true;
   }
+  // Opt-in, for measuring (session 8): PLIANT_CHURN_LINEARISED=1 turns
+  // ContactSettings::linearised_search on, =0 off (unset: the library default).
+  if (const char* env = std::getenv("PLIANT_CHURN_LINEARISED"); env != nullptr) {
+    world.settings().contact.linearised_search = std::string(env) == "1";
+  }
   const std::vector<BodyId> ids = add_block_stack(world, blocks, mu, fixed_base);
+  // Opt-in, for measuring (session 8): PLIANT_CHURN_SHIFT=metres moves the top block along x before
+  // the run. The late KE at 1 ms is chaotic: shifts of 0.1-10 um spread it over two decades, so
+  // searches are compared over an ensemble of shifts (docs/contact-surface.md, session 8).
+  if (const char* env = std::getenv("PLIANT_CHURN_SHIFT"); env != nullptr) {
+    for (auto& x : world.body(ids.back()).positions) x.x() += std::atof(env);
+  }
   double mass = 0.0;
   for (BodyId id : ids) mass += world.body(id).total_mass();
 
