@@ -43,14 +43,17 @@ class RespondTimer final : public StepProfiler {
 /// penalty response; surface_frozen_search: held off, the frozen-rotation search on
 /// (ContactSettings::frozen_rotation_search; appended last so the others keep their ids);
 /// surface_linearised_search (session 6): held off, ContactSettings::linearised_search on;
-/// surface_query_search: held off, linearised_search off (the session-5 search).
+/// surface_query_search: held off, linearised_search off (the session-5 search);
+/// surface_linearised_held (session 8): the library defaults (held forces on) with the linearised
+/// search on.
 enum class Variant {
   surface,
   surface_without_held_forces,
   penalty,
   surface_frozen_search,
   surface_linearised_search,
-  surface_query_search
+  surface_query_search,
+  surface_linearised_held
 };
 
 void run_respond_benchmark(benchmark::State& state, const char* scene_file) {
@@ -59,9 +62,12 @@ void run_respond_benchmark(benchmark::State& state, const char* scene_file) {
   Scene scene = load_scene(file.string());
   scene.world.contact.method =
       variant == Variant::penalty ? ContactMethod::penalty : ContactMethod::contact_surface;
-  if (variant != Variant::surface) scene.world.contact.held_force_fraction = 0.0;
+  const bool held = variant == Variant::surface || variant == Variant::surface_linearised_held;
+  if (!held) scene.world.contact.held_force_fraction = 0.0;
   if (variant == Variant::surface_frozen_search) scene.world.contact.frozen_rotation_search = true;
-  if (variant == Variant::surface_linearised_search) scene.world.contact.linearised_search = true;
+  if (variant == Variant::surface_linearised_search || variant == Variant::surface_linearised_held) {
+    scene.world.contact.linearised_search = true;
+  }
   if (variant == Variant::surface_query_search) scene.world.contact.linearised_search = false;
   scene.world.compute_energy = false;
   scene.world.sleep.enabled = false;  // keep every body in contact awake: time the response itself
@@ -106,6 +112,7 @@ BENCHMARK(BM_ThreeCubesRespond)
     ->Arg(static_cast<int>(Variant::surface_frozen_search))
     ->Arg(static_cast<int>(Variant::surface_linearised_search))
     ->Arg(static_cast<int>(Variant::surface_query_search))
+    ->Arg(static_cast<int>(Variant::surface_linearised_held))
     ->ArgNames({"variant"})
     ->UseManualTime()
     ->Iterations(300)

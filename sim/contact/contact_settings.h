@@ -59,11 +59,13 @@ struct ContactSettings {
   /// evaluation's positions and K' the stiffness matrix of the body's last implicit step
   /// (DeformationModel::stiffness_product_at: rotations frozen, no per-element work), for a body
   /// whose searching vertices have |s| <= h / 2^(n+2) (a quarter of frozen_rotation_search's
-  /// gate). The first and the final evaluation stay queries. false (the default since session 7:
-  /// on, two free stacked blocks at dt 1 ms churned 12x more and the membrane stack never came to
-  /// rest; docs/contact-surface.md "Linearised search off by default"): every search iteration
-  /// asks the force query (the session-5 search, bit for bit).
-  bool linearised_search = false;
+  /// gate). The first evaluation is the exact query (session 8: no reused rotations at the point
+  /// every later iteration linearises about) and the final one stays a query. On by default again
+  /// since session 8: session 7's "12x more churn" was one sample of a chaotic run; over 16 shifted
+  /// starts the free stack churns less than with the session-5 search (docs/contact-surface.md
+  /// "Linearised search on again"). false: every search iteration asks the force query (the
+  /// session-5 search, bit for bit).
+  bool linearised_search = true;
   /// The linearised search's second gate: a body's later iterations ask the query instead where a
   /// searching vertex's move since the first evaluation changes one of its elements' deformation
   /// gradient by more than this (|d| |grad N|, dimensionless; a sliver's rotation turns fast).

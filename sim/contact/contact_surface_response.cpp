@@ -42,7 +42,8 @@ void place_region(std::span<Body* const> bodies, std::vector<DisplacementVertex>
 // With `rotation_tolerance` > 0 the exact pass reuses rotations extracted earlier where the
 // element's F moved by at most that much (internal_forces_at_nearby_rotations; search only).
 // Linearised search (session 6, ContactSettings::linearised_search): `linearisation` = start
-// records, after the queries, each linearised group's positions and search forces (x1, f(x1));
+// asks a linearised group's query exactly (no reused rotations, session 8) and records, after the
+// queries, each linearised group's positions and search forces (x1, f(x1));
 // = use evaluates such a group as f(x1) - K' (x - x1) (DeformationModel::stiffness_product_at)
 // instead of asking the query; a model without K' falls back to the query. = final (session 7,
 // ContactSettings::linearised_final_evaluation): the final evaluation of such a group takes
@@ -120,8 +121,11 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       if (frozen) {
         body.model->internal_forces_at_frozen_rotations(body.positions, g.query_vertices, g.query_forces);
       } else {  // tolerance 0 is the exact query
+        // The linearisation point f(x1) is exact (session 8): every later iteration of the group
+        // reuses it, so a reused rotation's error there would be carried through the whole search.
+        const bool linearisation_point = linearisation == Linearisation::start && g.linearised;
         body.model->internal_forces_at_nearby_rotations(body.positions, g.query_vertices, g.query_forces,
-                                                        rotation_tolerance);
+                                                        linearisation_point ? 0.0 : rotation_tolerance);
       }
       for (size_t q = 0; q < g.query_entries.size(); ++q) {
         g.forces[static_cast<size_t>(g.query_entries[q])] = g.query_forces[q];

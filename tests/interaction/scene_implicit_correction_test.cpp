@@ -1,7 +1,7 @@
 // The scene's contact.implicit_correction key (docs/scene-format.md): "off" | "stiff_partners" |
 // "all" reach the World's ContactSettings; session 6's booleans still read (true: "all", as then);
 // another string or type is an InputError naming the key's JSON path. The opt-in
-// contact.linearised_search key (a boolean, default false) reaches it the same way.
+// contact.linearised_search key (a boolean, default true since session 8) reaches it the same way.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -46,9 +46,9 @@ TEST(SceneFormat, ContactImplicitCorrectionReachesTheWorld) {
 
 TEST(SceneFormat, ContactLinearisedSearchReachesTheWorld) {
   nlohmann::json j = probe_coarse_json();
-  EXPECT_FALSE(instantiate_scene(parse_scene(j, "probe_coarse.json", ".")).world->settings().contact.linearised_search);
-  j["contact"]["linearised_search"] = true;
   EXPECT_TRUE(instantiate_scene(parse_scene(j, "probe_coarse.json", ".")).world->settings().contact.linearised_search);
+  j["contact"]["linearised_search"] = false;
+  EXPECT_FALSE(instantiate_scene(parse_scene(j, "probe_coarse.json", ".")).world->settings().contact.linearised_search);
   j["contact"]["linearised_search"] = "yes";
   try {
     parse_scene(j, "probe_coarse.json", ".");

@@ -174,16 +174,18 @@ TEST(ContactChurnLedger, HeldForcesPushTheCentresApartAtOneMillisecondNotAtHalf)
 
 // ContactSettings::held_force_release: a pair whose centres separate along its held force
 // releases the impulse the separation carries before the integration. The held forces then take
-// energy out of the centres at 1 ms too, and the late kinetic energy falls (measured 4.09e-5 ->
-// 2.20e-5 J with the session-5 search, the default; 4.9e-4 -> 2.7e-5 J with session 6's linearised
-// search), still ~10x above the rest floor: what is left is the dents' elastic energy that the
-// displacement stores and the integration releases every step (the contact stays closed).
+// energy out of the centres at 1 ms too (the release's mechanism, asserted), and the stack still
+// churns, above the rest floor: what is left is the dents' elastic energy that the displacement
+// stores and the integration releases every step (the contact stays closed). Whether the late KE
+// falls is not asserted on one run (session 8): the late KE at 1 ms is chaotic in sub-micron
+// shifts of the start (contact_churn_ensemble_long_test.cpp), and one run each way measured
+// 4.09e-5 -> 2.20e-5 J (session-5 search), 4.9e-4 -> 2.7e-5 J (session 6's linearised search),
+// 3.44e-5 -> 3.83e-5 J (session 8's default); over 16 shifts it falls (geometric mean 7.84e-5 ->
+// 4.14e-5 J, ContactChurnEnsemble.LongHeldForceReleaseLowersTheFrictionlessChurn).
 TEST(ContactChurnLedger, ReleasingSeparatingPairsStopsThePushButTheStackStillChurns) {
-  const ChurnLedger off = take_ledger(1e-3, false);
   const ChurnLedger on = take_ledger(1e-3, true);
   expect_consistent(on);
   EXPECT_LT(on.rigid_integrate, 0.0);
-  EXPECT_LT(on.kinetic_late_max, off.kinetic_late_max);
   EXPECT_GT(on.kinetic_late_max, on.rest_floor);  // not resting: the churn test stays disabled
   const ChurnLedger half = take_ledger(5e-4, true);
   EXPECT_LT(half.kinetic_late_max, half.rest_floor);

@@ -3,6 +3,11 @@
 // churn's per-stage energy ledger.
 #pragma once
 
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -44,6 +49,51 @@ inline std::vector<BodyId> add_block_stack(World& world, int blocks, double mu, 
   floor.pose.translation = Vec3(0, 0, -0.01);
   world.add_body(floor);
   return ids;
+}
+
+/// Late-run numbers of one block-stack run (the resting-churn measures).
+struct ChurnRun {
+  double kinetic_late_max = 0.0;      ///< largest kinetic energy over the last 2/7 of the run (J)
+  double rest_floor = 0.0;            ///< (1/2) M (g dt)^2 over the free mass M (J)
+  double stored_speed_max = 0.0;      ///< largest stored vertex speed over the same steps (m/s)
+  double positional_speed_max = 0.0;  ///< largest |x_{n+1} - x_n| / dt over the same steps (m/s)
+};
+
+/// `blocks` stacked blocks (add_block_stack) for 0.7 s of steps dt, held forces 1, finishing
+/// projection on, friction iff mu > 0; `adjust` changes the contact settings after those; the top
+/// block starts `shift_m` further along x (the late KE at 1 ms is chaotic in it).
+inline ChurnRun run_block_stack(int blocks, double mu, double dt, bool fixed_base = false,
+                                const std::function<void(ContactSettings&)>& adjust = {}, double shift_m = 0.0) {
+  constexpr double kG = 9.81;  // m/s^2, WorldSettings' default gravity
+  World world;
+  world.settings().contact.held_force_fraction = 1.0;
+  world.settings().contact.friction = mu > 0.0;
+  world.settings().contact.finishing_projection = true;
+  if (adjust) adjust(world.settings().contact);
+  const std::vector<BodyId> ids = add_block_stack(world, blocks, mu, fixed_base);
+  for (auto& x : world.body(ids.back()).positions) x.x() += shift_m;
+  double mass = 0.0;
+  for (BodyId id : ids) mass += world.body(id).total_mass();
+
+  ChurnRun out;
+  out.rest_floor = 0.5 * mass * (kG * dt) * (kG * dt);
+  const int steps = static_cast<int>(std::lround(0.7 / dt));
+  std::vector<std::vector<Vec3>> previous(ids.size());
+  for (int i = 1; i <= steps; ++i) {
+    for (size_t k = 0; k < ids.size(); ++k) previous[k] = world.body(ids[k]).positions;
+    const StepReport& r = world.step(dt);
+    EXPECT_EQ(r.fault, StepFault::none) << i;
+    if (i <= steps * 5 / 7) continue;
+    out.kinetic_late_max = std::max(out.kinetic_late_max, r.energy.kinetic);
+    for (size_t k = 0; k < ids.size(); ++k) {
+      const Body& b = world.body(ids[k]);
+      for (size_t v = 0; v < b.positions.size(); ++v) {
+        out.stored_speed_max = std::max(out.stored_speed_max, b.velocities[v].norm());
+        out.positional_speed_max = std::max(out.positional_speed_max, (b.positions[v] - previous[k][v]).norm() / dt);
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace pliant
