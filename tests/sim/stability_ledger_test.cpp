@@ -46,7 +46,7 @@ TEST(StabilityLedger, ReproducesTheWorldsRun) {
   }
 }
 
-// Measured (session 8): friction on, stage 5 adds +107 J to the stiff block over the 300 steps
+// Measured (session 8, defaults): friction on, stage 5 adds +107 J to the stiff block over the 300 steps
 // (the integration takes -105 J back out; the search adds +0.80 J); friction off, stage 5 adds
 // +6.4e-6 J to the stiff block and -2.1e-5 J to the tissue, and the search's +0.079 J is what is
 // left (the case then fails at 101x instead of 1.38e4x: M1 on the stiff side, CFL c_p dt / h ~280).
@@ -61,6 +61,21 @@ TEST(StabilityLedger, FrictionsMoveOnAStiffSupportIsWhereTheEnergyEnters) {
   EXPECT_GT(with_friction.body[0].velocity, 1e3 * floor);  // on the stiff block
   EXPECT_GT(with_friction.body[0].velocity, 10.0 * with_friction.body[0].search);
   EXPECT_LT(without.max_total, with_friction.max_total);
+}
+
+// ContactSettings::anchored_friction_compliance (opt-in, M7): the stiff block's vertices (omega dt
+// >> 1, fixed base) answer a friction impulse with their quasi-static compliance 1 / (k dt^2), so
+// their moves store at most the kinetic energy the impulses remove. Measured (session 8): stage 5
+// on the stiff block +107 J -> +6.5e-6 J, the case 1.38e4x -> 101x (what is left is the search's
+// M1 on the stiff side, +0.068 J).
+TEST(StabilityLedger, AnchoredFrictionComplianceTakesTheStiffSupportsShareOut) {
+  Case on = tissue_on_stiff_support();
+  on.contact_tweak = [](ContactSettings& s) { s.anchored_friction_compliance = true; };
+  const double floor = energy_floor(on);
+  const StageLedger compliant = take_stage_ledger(on);
+  const StageLedger plain = take_stage_ledger(tissue_on_stiff_support());
+  EXPECT_LE(compliant.body[0].velocity, floor);
+  EXPECT_LT(compliant.max_total, 1e-2 * plain.max_total);
 }
 
 // The goal, not met: tissue resting on a stiff support stays within the energy budget. Measured
