@@ -127,6 +127,15 @@ struct ContactSettings {
   /// ImplicitContactCorrection.DropEnergyRatioAcrossCfl (7.03 vs 1.6) and changes the probe from
   /// step 1388. false: every friction move is dt dv (session 6's stage 5, bit for bit).
   bool limit_friction_move = false;
+  /// Beyond the paper, opt-in (session 8, docs/stability.md M7): between two movable sides, a
+  /// friction impulse sees a vertex of a body with fixed vertices that is stiff within the step
+  /// (omega dt > 1, omega^2 = k / m, k its one-vertex stiffness) with its quasi-static compliance
+  /// 1 / (k dt^2) instead of 1 / m, so its move dt dv stores at most the kinetic energy the impulse
+  /// removes (tissue on a 1e10 Pa block: stage 5 added +107 J over 0.3 s, with this 6.5e-6 J). Off
+  /// by default: the soft side then takes the whole tangential correction and the matrix's corner
+  /// ratio 1e-6 nu 0.499 overlap 0.5 goes 1.16 -> 2.86 (nu 0.499 1.75 -> 1.79, dt 5 ms 5.45 -> 5.81).
+  /// false: session 7's stage 5 bit for bit (so is true where no such vertex meets friction).
+  bool anchored_friction_compliance = false;
   /// Barycentric weights in Eq. 1 and Eq. 2 (the paper). false weighs every contribution 1:
   /// only for measuring what the weighting buys (continuity test).
   bool barycentric_weighting = true;

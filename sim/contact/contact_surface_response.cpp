@@ -551,7 +551,8 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   const bool warm_start = settings.held_force_fraction > 0.0;
   gather_contacts(bodies, contacts, dt, warm_start);
   apply_contact_velocity_update(bodies, all_contacts_, dt, settings.friction, held_impulses_, lingering_begin_,
-                                impulses_, rigid_modes_, settings.limit_friction_move ? &friction_moves_ : nullptr);
+                                impulses_, rigid_modes_, settings.limit_friction_move ? &friction_moves_ : nullptr,
+                                settings.anchored_friction_compliance);
   // Friction moves the vertices it slows by h dv, tangentially to its own contact's plane but not
   // to a neighbouring contact's that shares a triangle vertex (a dent's slopes; lingering contacts):
   // with held forces the friction cone is the full load's and this left up to 0.1 mm of overlap on

@@ -10,6 +10,7 @@
 #include "sim/contact/contact_velocity_update.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <Eigen/Dense>
@@ -23,12 +24,31 @@ double inverse_mass(const Body& body, int v) {
   return body.is_immovable(v) ? 0.0 : 1.0 / body.masses[static_cast<size_t>(v)];
 }
 
+// Session 8 (docs/stability.md M7): the inverse mass a friction impulse along the unit tangent t
+// sees at vertex v. Stage 5 moves a vertex its friction impulse j slows by dt dv, dv = w j; moving
+// it alone stores k (dt dv)^2 / 2 (k = vertex_stiffness_along), (omega dt)^2 times the kinetic
+// energy m dv^2 / 2 the impulse removes (omega^2 = k / m). On a body with fixed vertices there is
+// no rigid motion to excuse it, and where omega dt > 1 the step's implicit solve would have spread
+// the impulse over the vertex's neighbours and into the fixed vertices behind them: the vertex
+// answers with its quasi-static compliance 1 / (k dt^2) = w / (omega dt)^2, and its move stores at
+// most the kinetic energy its impulse removes. Elsewhere (omega dt <= 1, or a free body, whose
+// moves may be rigid: a sticking block) w itself, bit for bit.
+double friction_inverse_mass(const Body& body, int v, const Vec3& t, double dt) {
+  const double w = inverse_mass(body, v);
+  if (w == 0.0) return w;
+  const double omega_dt_squared = vertex_stiffness_along(body, v, t) * w * dt * dt;
+  if (!(omega_dt_squared > 1.0)) return w;
+  const bool anchored = std::any_of(body.fixed.begin(), body.fixed.end(), [](char f) { return f != 0; });
+  return anchored ? w / omega_dt_squared : w;
+}
+
 }  // namespace
 
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
-                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves) {
+                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves,
+                                   bool anchored_friction_compliance) {
   impulses.assign(contacts.size(), ContactImpulse{});
   // Rigid modes per body slot, only when some contact holds an impulse (the scratch keeps its
   // capacity between steps: no allocation once grown).
@@ -142,10 +162,47 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     const Vec3 v_t = v_rel - vn * normal;
     const double speed = v_t.norm();
     if (speed <= 0.0) continue;
-    const double stick_impulse = speed / w_sum;
-    const double jt = std::min(stick_impulse, mu * normal_impulse);
-    const Vec3 j = -jt * (v_t / speed);
-    apply(j, true);
+    const Vec3 tangent = v_t / speed;
+    // M7 (friction_inverse_mass): only between two movable sides; against an immovable partner
+    // the movable side takes the whole velocity change whatever its inverse mass.
+    double wf_x = w_x, wf_p = w_p;
+    std::array<double, 3> wf_y{};
+    bool compliant = false;
+    if (anchored_friction_compliance && w_x > 0.0 && w_p > 0.0) {
+      wf_x = friction_inverse_mass(m, contact.vertex, tangent, dt);
+      compliant = wf_x != w_x;
+      wf_p = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const int y = tri[static_cast<size_t>(k)];
+        wf_y[static_cast<size_t>(k)] = friction_inverse_mass(n, y, tangent, dt);
+        compliant = compliant || wf_y[static_cast<size_t>(k)] != inverse_mass(n, y);
+        wf_p += b[k] * b[k] * wf_y[static_cast<size_t>(k)];
+      }
+    }
+    if (!compliant) {
+      const double stick_impulse = speed / w_sum;
+      const double jt = std::min(stick_impulse, mu * normal_impulse);
+      const Vec3 j = -jt * tangent;
+      apply(j, true);
+      impulses[c].friction = j;
+      continue;
+    }
+    const double jt = std::min(speed / (wf_x + wf_p), mu * normal_impulse);
+    const Vec3 j = -jt * tangent;
+    if (wf_x > 0.0) {
+      const Vec3 dv = wf_x * j;
+      m.velocities[static_cast<size_t>(contact.vertex)] += dv;
+      m.positions[static_cast<size_t>(contact.vertex)] += dt * dv;
+      record_move(contact.body, contact.vertex, dv);
+    }
+    for (int k = 0; k < 3; ++k) {
+      const int y = tri[static_cast<size_t>(k)];
+      if (wf_y[static_cast<size_t>(k)] == 0.0 || b[k] == 0.0) continue;
+      const Vec3 dv = -b[k] * wf_y[static_cast<size_t>(k)] * j;
+      n.velocities[static_cast<size_t>(y)] += dv;
+      n.positions[static_cast<size_t>(y)] += dt * dv;
+      record_move(contact.penetrated_body, y, dv);
+    }
     impulses[c].friction = j;
   }
   // The limit (docs/stability.md M6a): a body's friction moves store at most their kinetic budget;

@@ -83,10 +83,13 @@ struct RigidModes {
 /// (ContactSettings::limit_friction_move) a body's friction moves dt dv are recorded there and their
 /// deforming part scaled by friction_move_scale so it stores at most the kinetic energy of the
 /// body's friction impulses (docs/stability.md M6a); null: every move is dt dv (session 6's stage
-/// 5, bit for bit).
+/// 5, bit for bit). With `anchored_friction_compliance` (ContactSettings, docs/stability.md M7) a
+/// friction impulse between two movable sides sees a vertex of a body with fixed vertices that is
+/// stiff within the step (omega dt > 1) with its quasi-static compliance 1 / (k dt^2).
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
-                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves = nullptr);
+                                   std::vector<RigidModes>& rigid_scratch, FrictionMoveLedger* friction_moves = nullptr,
+                                   bool anchored_friction_compliance = false);
 
 }  // namespace pliant

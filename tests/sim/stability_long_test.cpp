@@ -81,6 +81,23 @@ std::vector<Case> full_matrix() {
       f.sliver = true;
       cases.push_back(f);
     }
+    // Session 8, the same extremes with bodies that can carry the load (docs/stability.md M8, M9):
+    // at ratio 1e6 about E 1e4 Pa the soft block has E = 10 Pa and cannot carry its own weight
+    // (rho g H / E = 39) and 1000 kg presses 6.1 MPa on 1e4 Pa tissue, so those rows mix the
+    // model's collapse with the contact. Here the soft side is the nominal 1e4 Pa tissue and the
+    // 1000 kg block rests on 1e9 Pa (strain 0.6%): real bodies would rest.
+    for (double ratio : {1e-6, 1e6}) {
+      Case c{.name = tag + "stiffness ratio " + std::to_string(ratio) + " soft side 1e4 Pa", .method = m};
+      c.stiffness_ratio = ratio;
+      c.young_mean = 1e7;
+      cases.push_back(c);
+    }
+    {
+      Case c{.name = tag + "upper mass 1000 kg on 1e9 Pa", .method = m};
+      c.upper_mass = 1000.0;
+      c.young_mean = 1e9;
+      cases.push_back(c);
+    }
   }
   // Opt-in (session 6): PLIANT_STABILITY_IMPLICIT_CORRECTION=1 (or "all") runs the contact-surface
   // cases with ContactSettings::implicit_correction on for every body, =2 (or "stiff_partners") only
