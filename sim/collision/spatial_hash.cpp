@@ -164,13 +164,16 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
   for (int b = 0; b < body_count; ++b) {
     if (!has_tets_[static_cast<size_t>(b)]) continue;
     const CollisionBody& cb = bodies[static_cast<size_t>(b)];
-    // Bounds of all vertices that may enter this body: tets outside them need no lookup.
+    // Bounds of all vertices that may enter this body: tets outside them need no lookup. A partner
+    // with no vertex inserted adds nothing (extending by an empty box's +inf min and -inf max made
+    // the bounds infinite, and every tet of the body was looked up in steps without contact).
     Aabb partners;
     partner_.assign(static_cast<size_t>(body_count), 0);
     for (int a = 0; a < body_count; ++a) {
       if (hashes_vertices_[static_cast<size_t>(a)] && filter.allowed(a, b)) {
         partner_[static_cast<size_t>(a)] = 1;
         const Aabb& va = vertex_bounds_[static_cast<size_t>(a)];
+        if (va.empty()) continue;
         partners.extend(va.min);
         partners.extend(va.max);
       }
