@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "sim/collision/contact_types.h"
+#include "sim/collision/rigid_tet_grid.h"
 
 namespace pliant {
 
@@ -102,6 +103,11 @@ class SpatialHash {
   std::vector<unsigned char> outcode_;  ///< pass 2 scratch: per vertex, side bits against the partners' box
   std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
   std::vector<VertexInTet> candidates_;
+  std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
+
+  /// Pass 2 for a rigid body b from the inserted partner vertices (each looked up in b's rest-frame
+  /// grid); false (nothing done) when b's positions are not pose(rest) within the grid's pad.
+  bool rigid_pass(int b, const CollisionBody& cb);
 };
 
 }  // namespace pliant
