@@ -18,7 +18,11 @@
 // face or edge of an aligned body is not lost). Candidates are sorted so the output is ordered by
 // (body, vertex, penetrated body) and one tet per (vertex, penetrated body) is kept: the one with
 // the largest minimum barycentric coordinate (the tet the vertex is deepest in), ties by index.
-// Bodies filtered out cost nothing; no allocation happens once the buffers have grown.
+// Bodies filtered out cost nothing; no allocation happens once the buffers have grown. A body with
+// a rigid pose (a kinematic instrument, CollisionBody::rigid_pose) is searched the other way round
+// (session 8): each inserted partner vertex is mapped into the body's rest frame and tested against
+// the tets of its cell in a grid built once (RigidTetGrid), with the same test, so the result is
+// the cell walk's bit for bit; positions off the pose by more than the grid's pad fall back to it.
 #pragma once
 
 #include <cstdint>
