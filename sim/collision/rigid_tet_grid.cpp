@@ -9,6 +9,11 @@ void RigidTetGrid::build(const TetMesh& mesh) {
   mesh_ = &mesh;
   const auto& rest = mesh.rest_positions();
   const auto& tets = mesh.tets();
+  rest_ = rest.data();
+  tets_ = tets.data();
+  vertex_count_ = rest.size();
+  tet_count_ = tets.size();
+  edge_ = mesh.mean_edge_length();
   Aabb bounds;
   for (const Vec3& x : rest) bounds.extend(x);
   const double edge = mesh.mean_edge_length() > 0.0 ? mesh.mean_edge_length() : 1.0;

@@ -13,6 +13,8 @@
 // edge length, enlarged until there are at most 64 cells per tet.
 #pragma once
 
+#include <cstddef>
+#include <span>
 #include <vector>
 
 #include "sim/math_types.h"
@@ -25,8 +27,13 @@ class RigidTetGrid {
  public:
   /// Bins every tet of `mesh` (kept by address: the mesh must outlive the grid's use).
   void build(const TetMesh& mesh);
-  /// The mesh the grid was built for (nullptr before build).
-  const TetMesh* mesh() const { return mesh_; }
+  /// Whether the grid was built for `mesh`: its address, the addresses and sizes of its arrays and
+  /// its mean edge length (a mesh freed and another made at the same address is not taken for it).
+  bool built_for(const TetMesh& mesh) const {
+    return mesh_ == &mesh && rest_ == mesh.rest_positions().data() && tets_ == mesh.tets().data() &&
+           vertex_count_ == mesh.rest_positions().size() && tet_count_ == mesh.tets().size() &&
+           edge_ == mesh.mean_edge_length();
+  }
   /// How far (m) beyond its rest bounds a tet is still listed in a cell.
   double pad() const { return pad_; }
   /// The tets whose padded rest bounds may contain the rest-frame point p (empty outside the grid).
@@ -44,6 +51,11 @@ class RigidTetGrid {
 
  private:
   const TetMesh* mesh_ = nullptr;
+  const Vec3* rest_ = nullptr;          ///< the mesh's rest positions when built
+  const TetIndices* tets_ = nullptr;    ///< the mesh's tets when built
+  size_t vertex_count_ = 0;
+  size_t tet_count_ = 0;
+  double edge_ = 0.0;                   ///< the mesh's mean edge length when built (m)
   Vec3 origin_ = Vec3::Zero();  ///< rest-frame corner of cell (0, 0, 0) (m)
   double inv_cell_ = 0.0;       ///< 1 / cell edge (1/m)
   double pad_ = 0.0;            ///< tolerance (m) the bins are grown by

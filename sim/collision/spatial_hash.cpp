@@ -64,7 +64,7 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   const auto i = static_cast<size_t>(b);
   if (rigid_grids_.size() <= i) rigid_grids_.resize(i + 1);
   RigidTetGrid& grid = rigid_grids_[i];
-  if (grid.mesh() != &mesh) grid.build(mesh);
+  if (!grid.built_for(mesh)) grid.build(mesh);
   // A point the inside test accepts lies within 1e-12 x (largest |coordinate|, longest edge) of the
   // tet (TetBarycentricFrame); in the rest frame add how far the positions are from pose(rest) and
   // the frame change's rounding. 1e-9 x the largest coordinate covers the tolerance and the rounding.
