@@ -313,6 +313,7 @@ void World::detect() {
       cb.self_collision = body->self_collision;
       cb.collision_group = body->collision_group;
       cb.collision_mask = body->collision_mask;
+      if (body->is_kinematic()) cb.rigid_pose = &body->pose;  // positions = pose(rest), World::integrate
     } else {
       cb.active = false;
     }

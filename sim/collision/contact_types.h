@@ -60,6 +60,9 @@ struct CollisionBody {
   bool self_collision = false;  ///< look for this body's vertices inside its own tets
   unsigned collision_group = 1u;   ///< bit(s) this body belongs to
   unsigned collision_mask = ~0u;   ///< groups this body may touch
+  /// A rigid body's pose (a kinematic instrument): positions are pose applied to the rest mesh, so
+  /// detection may locate points among its tets in the rest frame (SpatialHash, RigidTetGrid).
+  const Pose* rigid_pose = nullptr;
 };
 
 /// Which body pairs may touch, decided once per step by the world (groups, masks, explicit

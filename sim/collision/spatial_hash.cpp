@@ -19,7 +19,74 @@ int cell_coordinate(double x, double inv_l) {
 
 double min_coefficient(const Vec4& b) { return b.minCoeff(); }
 
+/// One tet of body b under test: its corners, bounds and (built on first need) barycentric frame.
+/// The cell walk and the rigid pass test candidates through it, so both find the same bits.
+struct TetUnderTest {
+  const CollisionBody& cb;
+  int b;
+  int t;
+  const TetIndices& tet;
+  const Vec3* x[4];
+  Aabb box;
+  bool frame_ready = false;
+  TetBarycentricFrame frame;
+
+  TetUnderTest(const CollisionBody& body, int body_index, int tet_index)
+      : cb(body), b(body_index), t(tet_index), tet(body.mesh->tets()[static_cast<size_t>(tet_index)]) {
+    for (int k = 0; k < 4; ++k) {
+      x[k] = &cb.positions[static_cast<size_t>(tet[static_cast<size_t>(k)])];
+      box.extend(*x[k]);
+    }
+  }
+  /// Vertex `vertex` of body `body` at p: not one of the tet's own vertices, inside its bounds, then
+  /// inside it (closed across internal faces); appends the pair to `out` when inside.
+  void test(const Vec3& p, int body, int vertex, SpatialHashStats& stats, std::vector<VertexInTet>& out) {
+    if (body == b && (vertex == tet[0] || vertex == tet[1] || vertex == tet[2] || vertex == tet[3])) return;
+    if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) return;
+    if (!frame_ready) {
+      frame = TetBarycentricFrame::of(*x[0], *x[1], *x[2], *x[3]);
+      frame_ready = true;
+    }
+    ++stats.inside_tests;
+    Vec4 bary;
+    if (frame.contains_in_body(p, [&](int k) { return is_internal_tet_face(*cb.mesh, t, k); }, &bary)) {
+      out.push_back(VertexInTet{body, vertex, b, t, bary});
+    }
+  }
+};
+
 }  // namespace
+
+bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
+  const TetMesh& mesh = *cb.mesh;
+  const Pose& pose = *cb.rigid_pose;
+  if (!(std::abs(pose.rotation.squaredNorm() - 1.0) <= 1e-12)) return false;  // the inverse below needs a unit q
+  const auto i = static_cast<size_t>(b);
+  if (rigid_grids_.size() <= i) rigid_grids_.resize(i + 1);
+  RigidTetGrid& grid = rigid_grids_[i];
+  if (!grid.built_for(mesh)) grid.build(mesh);
+  // A point the inside test accepts lies within 1e-12 x (largest |coordinate|, longest edge) of the
+  // tet (TetBarycentricFrame); in the rest frame add how far the positions are from pose(rest) and
+  // the frame change's rounding. 1e-9 x the largest coordinate covers the tolerance and the rounding.
+  const auto& rest = mesh.rest_positions();
+  double deviation = 0.0;
+  double magnitude = pose.translation.cwiseAbs().maxCoeff();
+  for (size_t v = 0; v < rest.size(); ++v) {
+    const Vec3& x = cb.positions[v];
+    deviation = std::max(deviation, (x - pose.apply(rest[v])).norm());
+    magnitude = std::max(magnitude, x.cwiseAbs().maxCoeff());
+  }
+  if (!(deviation + 1e-9 * magnitude <= grid.pad())) return false;  // also false for non-finite positions
+  const Quat inverse = pose.rotation.conjugate();
+  for (const HashedVertex& hv : hashed_) {
+    if (!partner_[static_cast<size_t>(hv.body)]) continue;
+    for (int t : grid.tets_near(inverse * (hv.x - pose.translation))) {
+      ++stats_.tets_visited;
+      TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, stats_, candidates_);
+    }
+  }
+  return true;
+}
 
 std::uint64_t SpatialHash::hash_cell(int i, int j, int k, std::uint64_t table_size) {
   // Teschner et al. 2003, eq. (1); conversion of a negative int to uint64 is well defined (mod 2^64).
@@ -164,18 +231,22 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
   for (int b = 0; b < body_count; ++b) {
     if (!has_tets_[static_cast<size_t>(b)]) continue;
     const CollisionBody& cb = bodies[static_cast<size_t>(b)];
-    // Bounds of all vertices that may enter this body: tets outside them need no lookup.
+    // Bounds of all vertices that may enter this body: tets outside them need no lookup. A partner
+    // with no vertex inserted adds nothing (extending by an empty box's +inf min and -inf max made
+    // the bounds infinite, and every tet of the body was looked up in steps without contact).
     Aabb partners;
     partner_.assign(static_cast<size_t>(body_count), 0);
     for (int a = 0; a < body_count; ++a) {
       if (hashes_vertices_[static_cast<size_t>(a)] && filter.allowed(a, b)) {
         partner_[static_cast<size_t>(a)] = 1;
         const Aabb& va = vertex_bounds_[static_cast<size_t>(a)];
+        if (va.empty()) continue;
         partners.extend(va.min);
         partners.extend(va.max);
       }
     }
     if (partners.empty()) continue;
+    if (cb.rigid_pose != nullptr && rigid_pass(b, cb)) continue;
     // Cohen-Sutherland out-codes against the partners' box: a tet all of whose corners lie beyond
     // one of its faces cannot overlap it (the same decision as the box test below, without the box).
     const int nv = cb.mesh->vertex_count();
@@ -197,34 +268,12 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
            outcode_[static_cast<size_t>(tet[2])] & outcode_[static_cast<size_t>(tet[3])]) != 0) {
         continue;
       }
-      const Vec3* x[4];
-      Aabb box;
-      for (int k = 0; k < 4; ++k) {
-        x[k] = &cb.positions[static_cast<size_t>(tet[static_cast<size_t>(k)])];
-        box.extend(*x[k]);
-      }
+      TetUnderTest under_test(cb, b, t);
+      const Aabb& box = under_test.box;
       if (!box.overlaps(partners)) continue;
       ++stats_.tets_visited;
-      bool frame_ready = false;
-      TetBarycentricFrame frame;
-
       // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
-      auto test = [&](const HashedVertex& hv) {
-        if (hv.body == b && (hv.vertex == tet[0] || hv.vertex == tet[1] || hv.vertex == tet[2] ||
-                             hv.vertex == tet[3])) {
-          return;
-        }
-        if ((hv.x.array() < box.min.array()).any() || (hv.x.array() > box.max.array()).any()) return;
-        if (!frame_ready) {
-          frame = TetBarycentricFrame::of(*x[0], *x[1], *x[2], *x[3]);
-          frame_ready = true;
-        }
-        ++stats_.inside_tests;
-        Vec4 bary;
-        if (frame.contains_in_body(hv.x, [&](int k) { return is_internal_tet_face(*cb.mesh, t, k); }, &bary)) {
-          candidates_.push_back(VertexInTet{hv.body, hv.vertex, b, t, bary});
-        }
-      };
+      auto test = [&](const HashedVertex& hv) { under_test.test(hv.x, hv.body, hv.vertex, stats_, candidates_); };
 
       const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
       const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);

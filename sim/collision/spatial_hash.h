@@ -18,7 +18,11 @@
 // face or edge of an aligned body is not lost). Candidates are sorted so the output is ordered by
 // (body, vertex, penetrated body) and one tet per (vertex, penetrated body) is kept: the one with
 // the largest minimum barycentric coordinate (the tet the vertex is deepest in), ties by index.
-// Bodies filtered out cost nothing; no allocation happens once the buffers have grown.
+// Bodies filtered out cost nothing; no allocation happens once the buffers have grown. A body with
+// a rigid pose (a kinematic instrument, CollisionBody::rigid_pose) is searched the other way round
+// (session 8): each inserted partner vertex is mapped into the body's rest frame and tested against
+// the tets of its cell in a grid built once (RigidTetGrid), with the same test, so the result is
+// the cell walk's bit for bit; positions off the pose by more than the grid's pad fall back to it.
 #pragma once
 
 #include <cstdint>
@@ -26,6 +30,7 @@
 #include <vector>
 
 #include "sim/collision/contact_types.h"
+#include "sim/collision/rigid_tet_grid.h"
 
 namespace pliant {
 
@@ -102,6 +107,11 @@ class SpatialHash {
   std::vector<unsigned char> outcode_;  ///< pass 2 scratch: per vertex, side bits against the partners' box
   std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
   std::vector<VertexInTet> candidates_;
+  std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
+
+  /// Pass 2 for a rigid body b from the inserted partner vertices (each looked up in b's rest-frame
+  /// grid); false (nothing done) when b's positions are not pose(rest) within the grid's pad.
+  bool rigid_pass(int b, const CollisionBody& cb);
 };
 
 }  // namespace pliant
