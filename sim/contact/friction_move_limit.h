@@ -3,8 +3,8 @@
 // Design note. The friction impulse changes a vertex's velocity by dv and also moves it by
 // u = dt dv (docs/contact-surface.md, "Coulomb friction": the position was integrated with the old
 // velocity). A move field u stores the elastic energy E(u) = u^T K u / 2, while the impulses take
-// out only sum m dv^2 / 2 of kinetic energy. Moving one vertex alone stores k u^2 / 2 (k = d^T K_vv d, the
-// vertex's own stiffness along d): where omega dt = sqrt(k / m) dt > 1 (a light vertex, or a sliver tet's
+// out only sum m dv^2 / 2 of kinetic energy. Moving one vertex alone stores k u^2 / 2 (k = d^T K_vv d,
+// vertex_stiffness_along): where omega dt = sqrt(k / m) dt > 1 (a light vertex, or a sliver tet's
 // apex) the move stores (omega dt)^2 times what the impulse removes (energy out of nothing). But a
 // rigid motion of the body stores nothing, and a layer of vertices moving together (a sticking
 // block's bottom face) stores far less than the sum of its vertices' own k u^2 / 2: a per-vertex cap
@@ -23,11 +23,16 @@
 
 namespace pliant {
 
+/// Stiffness (N/m) a vertex feels when it alone moves along the unit `direction`, all others held:
+/// d^T K_vv d = sum over its tets of V (mu |g|^2 + (lambda + mu) (g . d)^2), g = grad N (linear
+/// elasticity in the rest frame: element rotations are not applied to d).
+double vertex_stiffness_along(const Body& body, int vertex, const Vec3& direction);
+
 /// Elastic energy (J) of moving the body's vertices by `move` (m, one per vertex) in linear
 /// elasticity about the current positions: sum over tets of V (mu eps:eps + lambda / 2 tr(eps)^2),
 /// eps = sym(sum_a u_a grad N_a^T) (V, grad N of the current tet). Zero for a rigid translation or
-/// an infinitesimal rotation of the whole body; one vertex alone: k u^2 / 2 with k = d^T K_vv d
-/// its own stiffness along d (about the rest shape).
+/// an infinitesimal rotation of the whole body; one vertex alone: vertex_stiffness_along u^2 / 2
+/// (about the rest shape).
 double move_energy(const Body& body, std::span<const Vec3> move);
 
 /// The part of a body's friction moves `move` (m, one per vertex) that deforms the moved set S

@@ -20,32 +20,6 @@
 namespace pliant::stability {
 namespace {
 
-/// The test's second method for one vertex moved alone. Stiffness (N/m) a vertex feels when it alone moves along the unit `direction`, all others held:
-/// d^T K_vv d = sum over its tets of V (mu |g|^2 + (lambda + mu) (g . d)^2), g = grad N (linear
-/// elasticity in the rest frame: element rotations are not applied to d).
-double vertex_stiffness_along(const Body& body, int vertex, const Vec3& direction) {
-  const TetMesh& mesh = *body.mesh;
-  const auto& x = mesh.rest_positions();
-  const double mu = body.material.lame_mu(), lambda = body.material.lame_lambda();
-  double k = 0.0;
-  for (int t : mesh.vertex_tets(vertex)) {
-    const TetIndices& tet = mesh.tets()[static_cast<size_t>(t)];
-    Vec3 face[3];
-    int n = 0;
-    for (int a = 0; a < 4; ++a) {
-      if (tet[static_cast<size_t>(a)] != vertex)
-        face[n++] = x[static_cast<size_t>(tet[static_cast<size_t>(a)])];
-    }
-    const double volume = mesh.rest_volumes()[static_cast<size_t>(t)];
-    if (!(volume > 0.0)) continue;
-    // grad N of the vertex: the opposite face's area normal / (3 V) (its sign does not matter here).
-    const Vec3 g = 0.5 * (face[1] - face[0]).cross(face[2] - face[0]) / (3.0 * volume);
-    k += volume * (mu * g.squaredNorm() + (lambda + mu) * std::pow(g.dot(direction), 2));
-  }
-  return k;
-}
-
-
 /// The model's elastic energy (J) after moving `vertex` alone by u along the unit direction d.
 double energy_of_move(Body& body, int vertex, const Vec3& d, double u) {
   std::vector<Vec3> moved = body.positions;
