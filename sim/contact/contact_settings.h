@@ -120,6 +120,10 @@ struct ContactSettings {
   /// coupled: the CG on the contact forces stops when every active contact's gap is within this of
   /// its target and no inactive one penetrates by more (m).
   double coupled_gap_tolerance = 1e-7;
+  /// coupled: the contact-force CG's preconditioner from the bodies' diagonal system blocks, the
+  /// local compliance h^2 (n^T D_a^-1 n + sum w_k^2 n^T D_bk^-1 n) (session 8); false: the mass-only
+  /// h^2 (1/m_a + sum w_k^2 / m_bk) of session 7, bit for bit.
+  bool coupled_block_preconditioner = true;
   /// Beyond the paper, opt-in (docs/stability.md, M6a): stage 5's friction moves dt dv of a body
   /// are scaled so their deforming part (the moves minus the moved set's rigid fit) stores at most
   /// the kinetic energy sum m |dv|^2 / 2 of its friction impulses. Off by default: on, it passes

@@ -1,15 +1,18 @@
-// Coupled mode (session 7, docs/contact-surface.md "Coupled"): a contact between two free
+// Coupled mode (sessions 7-8, docs/contact-surface.md "Coupled"): a contact between two free
 // corotational-FEM bodies is not prescribed in each body's solve; a scalar normal force lambda_k >= 0
 // acts +lambda n on the colliding vertex and -w_j lambda n on its triangle's vertices (J^T lambda:
 // equal and opposite by construction, so the pair's momentum is kept). Each body's step is affine in
 // lambda (the implicit step is linear in the external force; its prescribed constraints against
 // immovable partners stay in it), so the gaps g(lambda) = g(0) + S lambda with S = J A^-1 J^T h^2
 // symmetric positive definite. Projected CG on S lambda = target - g(0) over the active contacts
-// (Polyak's active-set CG for bound constraints), preconditioned by h^2 (1/m_a + sum w^2 / m_b):
+// (Polyak's active-set CG for bound constraints), preconditioned by the contact's local compliance
+// h^2 (n^T D_a^-1 n + sum w^2 n^T D_b^-1 n), D the bodies' diagonal system blocks of this step (session
+// 8; session 7's mass-only h^2 (1/m_a + sum w^2 / m_b) by ContactSettings::coupled_block_preconditioner):
 // each iteration re-solves the paired bodies at lambda + p (one pass), S p = g(lambda + p) -
 // g(lambda), and the gaps at lambda + alpha p follow from the two solves (affine). A step that would make a
 // lambda negative stops at zero and drops that contact; an inactive contact that penetrates is added; both
-// restart the CG. lambda starts at the last step's value for the same vertex and partner. The
+// restart the CG. lambda starts at the last step's value for the same vertex and partner (a sorted
+// flat list, no per-step allocation once the buffers have grown). The
 // bodies' final state is one more solve at the final lambda, not the affine combination of the
 // solves (the step lengths, up to ~100 with the mass-only preconditioner, amplified the solves'
 // residuals: momentum drifted 1e-10 N s per step in the head-on test).
@@ -17,8 +20,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
-#include <tuple>
+
+#include "sim/model/corotational_fem.h"
 
 namespace pliant {
 namespace {
@@ -27,6 +30,25 @@ namespace {
 bool resolvable(const Body* body) {
   return body != nullptr && !body->is_kinematic() && !body->is_sleeping() && body->model &&
          body->model->kind() == ModelKind::corotational_fem;
+}
+
+// h^2 n^T D_i^-1 n (m/N): how far a force along n on vertex i alone moves it in this step, from the
+// body's diagonal system block D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii of its last advance
+// (this step's integration from the same state); the mass-only h^2 / m_i where the block is not
+// available or not positive.
+double local_compliance(const Body& body, size_t i, const Vec3& n, double dt, bool blocks) {
+  const double mass_only = dt * dt / body.masses[i];
+  if (!blocks) return mass_only;
+  const auto* fem = dynamic_cast<const CorotationalFem*>(body.model.get());
+  if (fem == nullptr || fem->diagonal_system_blocks().size() != body.positions.size()) return mass_only;
+  const Mat3& D = fem->diagonal_system_blocks()[i];
+  if (!(D.determinant() > 0.0)) return mass_only;
+  const double c = n.dot(D.ldlt().solve(n));
+  return c > 0.0 ? dt * dt * c : mass_only;
+}
+
+bool by_key(const auto& a, const auto& b) {
+  return std::tie(a.body, a.vertex, a.triangle_body) < std::tie(b.body, b.vertex, b.triangle_body);
 }
 
 }  // namespace
@@ -61,11 +83,7 @@ void ImplicitContactCorrection::solve_body(Body& body, size_t b,
   BodyConstraints& c = per_body_[b];
   std::copy(start_positions[b].begin(), start_positions[b].end(), body.positions.begin());
   std::copy(start_velocities[b].begin(), start_velocities[b].end(), body.velocities.begin());
-  std::vector<Vec3> external = c.external;
-  if (c.paired) {
-    for (size_t i = 0; i < external.size(); ++i) external[i] += c.pair_force[i];
-  }
-  IntegrationInput in{body.masses, body.fixed, external, dt};
+  IntegrationInput in{body.masses, body.fixed, c.paired ? c.load : c.external, dt};
   in.constraint_normals = c.normal;
   in.constraint_normal_velocities = c.normal_velocity;
   in.constraint_forces = c.force;
@@ -87,9 +105,15 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies,
   corrected_bodies_ = 0;
   coupled_passes_ = 0;
   coupled_gap_error_ = 0.0;
-  // The last step's pair forces, by (colliding body, vertex, penetrated body): the CG's start.
-  std::map<std::tuple<int, int, int>, double> last_lambda;
-  for (const PairContact& k : pairs_) last_lambda[{k.body, k.vertex, k.triangle_body}] = k.lambda;
+  // The last step's pair forces, by (colliding body, vertex, penetrated body): the CG's start (of
+  // equal keys the last one, as a map assigned in order would keep).
+  last_lambda_.clear();
+  for (const PairContact& k : pairs_) {
+    last_lambda_.push_back({k.body, k.vertex, k.triangle_body, static_cast<int>(last_lambda_.size()), k.lambda});
+  }
+  std::sort(last_lambda_.begin(), last_lambda_.end(), [](const LastLambda& a, const LastLambda& b) {
+    return by_key(a, b) || (!by_key(b, a) && a.order < b.order);
+  });
   pairs_.clear();
   if (scope == ImplicitCorrection::off) return;
 
@@ -128,14 +152,26 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies,
         on_triangle += k.weight[j] * penetrated->positions[static_cast<size_t>(tri[j])];
       }
       k.target = (colliding->positions[static_cast<size_t>(k.vertex)] - on_triangle).dot(k.normal);
-      double compliance = 1.0 / colliding->masses[static_cast<size_t>(k.vertex)];
-      for (size_t j = 0; j < 3; ++j) {
-        const auto v = static_cast<size_t>(tri[j]);
-        if (penetrated->fixed[v] == 0) compliance += k.weight[j] * k.weight[j] / penetrated->masses[v];
+      if (settings.coupled_block_preconditioner) {
+        k.scale = local_compliance(*colliding, static_cast<size_t>(k.vertex), k.normal, dt, true);
+        for (size_t j = 0; j < 3; ++j) {
+          const auto v = static_cast<size_t>(tri[j]);
+          if (penetrated->fixed[v] == 0) {
+            k.scale += k.weight[j] * k.weight[j] * local_compliance(*penetrated, v, k.normal, dt, true);
+          }
+        }
+      } else {  // session 7's mass-only scale, its arithmetic as it was
+        double compliance = 1.0 / colliding->masses[static_cast<size_t>(k.vertex)];
+        for (size_t j = 0; j < 3; ++j) {
+          const auto v = static_cast<size_t>(tri[j]);
+          if (penetrated->fixed[v] == 0) compliance += k.weight[j] * k.weight[j] / penetrated->masses[v];
+        }
+        k.scale = dt * dt * compliance;
       }
-      k.scale = dt * dt * compliance;
-      const auto last = last_lambda.find({k.body, k.vertex, k.triangle_body});
-      if (last != last_lambda.end()) k.lambda = last->second;
+      const LastLambda key{k.body, k.vertex, k.triangle_body, 0, 0.0};
+      const auto last = std::upper_bound(last_lambda_.begin(), last_lambda_.end(), key,
+                                         [](const LastLambda& a, const LastLambda& b) { return by_key(a, b); });
+      if (last != last_lambda_.begin() && !by_key(*std::prev(last), key)) k.lambda = std::prev(last)->lambda;
       pairs_.push_back(k);
       for (const size_t body : {static_cast<size_t>(k.body), static_cast<size_t>(k.triangle_body)}) {
         activate(bodies, body);
@@ -189,7 +225,10 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies,
     }
     c.external.resize(n);
     for (size_t i = 0; i < n; ++i) c.external[i] = body.masses[i] * gravity + body.applied_forces[i];
-    if (c.paired) c.pair_force.assign(n, Vec3::Zero());
+    if (c.paired) {
+      c.pair_force.assign(n, Vec3::Zero());
+      c.load.resize(n);
+    }
     ++corrected_bodies_;
   }
   // Bodies without pair contacts: one solve each (all positions read above, so resets are safe).
@@ -254,7 +293,10 @@ void ImplicitContactCorrection::solve_pairs(std::span<Body* const> bodies,
       }
     }
     for (size_t b = 0; b < bodies.size(); ++b) {
-      if (per_body_[b].paired) solve_body(*bodies[b], b, start_positions, start_velocities, dt, report);
+      BodyConstraints& c = per_body_[b];
+      if (!c.paired) continue;
+      for (size_t i = 0; i < c.load.size(); ++i) c.load[i] = c.external[i] + c.pair_force[i];
+      solve_body(*bodies[b], b, start_positions, start_velocities, dt, report);
     }
     ++coupled_passes_;
   };
@@ -267,8 +309,11 @@ void ImplicitContactCorrection::solve_pairs(std::span<Body* const> bodies,
     return (a.positions[static_cast<size_t>(k.vertex)] - on_triangle).dot(k.normal);
   };
 
-  std::vector<double> lambda(m), g(m), r(m), z(m), p(m), sp(m), trial(m);
-  std::vector<char> active(m);
+  PairScratch& s = scratch_;
+  for (auto* v : {&s.lambda, &s.g, &s.r, &s.z, &s.p, &s.sp, &s.trial}) v->assign(m, 0.0);
+  s.active.assign(m, 0);
+  std::vector<double>&lambda = s.lambda, &g = s.g, &r = s.r, &z = s.z, &p = s.p, &sp = s.sp, &trial = s.trial;
+  std::vector<char>& active = s.active;
   for (size_t j = 0; j < m; ++j) lambda[j] = pairs_[j].lambda;
   solve_all(lambda);
   bool solved_at_lambda = true;  // the bodies hold the solve at lambda (not a trial)

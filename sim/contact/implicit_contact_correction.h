@@ -85,6 +85,7 @@ class ImplicitContactCorrection {
     std::vector<Vec3> force;              ///< N, constraint forces of the solve
     std::vector<Vec3> external;           ///< N, gravity plus applied forces
     std::vector<Vec3> pair_force;         ///< N, coupled: the pair contacts' forces on each vertex
+    std::vector<Vec3> load;               ///< N, coupled: external plus pair_force (the solve's input)
     bool paired = false;                  ///< coupled: has a pair contact this step
   };
   /// A contact between two free corotational-FEM bodies in coupled mode: a scalar normal force
@@ -98,7 +99,21 @@ class ImplicitContactCorrection {
     Vec3 normal = Vec3::Zero();      ///< contact triangle's outward unit normal (response positions)
     double target = 0.0;             ///< m, gap at the response's positions
     double lambda = 0.0;             ///< N, normal force (CG unknown)
-    double scale = 0.0;              ///< m/N, h^2 (1/m_a + sum w_k^2 / m_bk): the CG's preconditioner
+    /// m/N, the CG's preconditioner: the contact's local compliance h^2 (n^T D_a^-1 n + sum w_k^2
+    /// n^T D_bk^-1 n) from the bodies' diagonal system blocks, or h^2 (1/m_a + sum w_k^2 / m_bk)
+    double scale = 0.0;
+  };
+  /// A pair contact's force kept for the next step's warm start, sorted by (body, vertex,
+  /// triangle_body, order).
+  struct LastLambda {
+    int body = -1, vertex = -1, triangle_body = -1;  ///< the contact's key
+    int order = 0;                                   ///< position in last step's list (last wins)
+    double lambda = 0.0;                             ///< N
+  };
+  /// The contact-force CG's vectors (one entry per pair contact), reused across steps.
+  struct PairScratch {
+    std::vector<double> lambda, g, r, z, p, sp, trial;
+    std::vector<char> active;
   };
   /// Body slots re-solved this step: `coupled` lists the ones with a pair contact.
   void activate(std::span<Body* const> bodies, size_t body);
@@ -118,6 +133,8 @@ class ImplicitContactCorrection {
   std::vector<BodyConstraints> per_body_;
   int corrected_bodies_ = 0;
   std::vector<PairContact> pairs_;     ///< coupled: this step's free-free contacts
+  std::vector<LastLambda> last_lambda_;  ///< coupled: last step's pair forces (warm start)
+  PairScratch scratch_;                ///< coupled: the CG's vectors
   int coupled_passes_ = 0;             ///< coupled: re-solve passes of the last correction
   double coupled_gap_error_ = 0.0;     ///< coupled: largest gap error left (m)
   ContactSettings response_settings_;  ///< response_settings' copy when it differs from the input

@@ -121,6 +121,9 @@ class CorotationalFem final : public DeformationModel {
   void set_stiffness_rotation_tolerance(double radians) { stiffness_rotation_tolerance_ = radians; }
   /// The rotation tolerance (rad) of K' reuse; 0: none.
   double stiffness_rotation_tolerance() const { return stiffness_rotation_tolerance_; }
+  /// Diagonal 3x3 blocks D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii of the last advance's system
+  /// (kg; identity at fixed vertices), e.g. a contact solve's local compliance h^2 n^T D_i^-1 n.
+  std::span<const Mat3> diagonal_system_blocks() const { return diagonal_system_blocks_; }
   /// Vertex rows of K' the last advance summed again (all of them without reuse).
   size_t reassembled_rows() const { return reassembled_rows_; }
   /// Element rotation (from the last evaluation of the linearisation state).

@@ -10,6 +10,7 @@
 #endif
 
 #include <cmath>
+#include <utility>
 
 #include "sim/mesh/box_mesh.h"
 #include "sim/world.h"
@@ -45,10 +46,15 @@ Material tissue(double young) {
 }
 
 TEST(ContactAllocation, RespondStageAllocatesNothingAfterWarmUp) {
-  for (double held : {0.0, 0.8}) {
+  // Held forces off and on; and the coupled free-free solve (session 8: its warm start, CG vectors
+  // and solve loads reused; the upper block on the lower one is a pair of free bodies).
+  const std::pair<double, ImplicitCorrection> cases[] = {
+      {0.0, ImplicitCorrection::off}, {0.8, ImplicitCorrection::off}, {0.0, ImplicitCorrection::coupled}};
+  for (const auto& [held, correction] : cases) {
     World world;
     world.settings().contact.finishing_projection = true;
     world.settings().contact.held_force_fraction = held;
+    world.settings().contact.implicit_correction = correction;
     const auto lower_mesh = make_box_mesh({Vec3(0.08, 0.08, 0.04), 6, 6, 3});
     BodyDef lower{.name = "lower", .mesh = lower_mesh, .material = tissue(1e4)};
     lower.pose.translation = Vec3(0, 0, -0.02);
@@ -79,7 +85,10 @@ TEST(ContactAllocation, RespondStageAllocatesNothingAfterWarmUp) {
         ASSERT_GT(world.last_report().colliding_vertices, 0) << step;
       }
     }
-    EXPECT_EQ(counter.count, 0) << "held forces " << held;
+    EXPECT_EQ(counter.count, 0) << "held forces " << held << ", correction " << static_cast<int>(correction);
+    if (correction == ImplicitCorrection::coupled) {
+      EXPECT_GT(world.implicit_contact_correction().coupled_contacts(), 0);
+    }
   }
 }
 
