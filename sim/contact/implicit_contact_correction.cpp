@@ -36,9 +36,8 @@ bool resolvable(const Body* body) {
 // body's diagonal system block D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii of its last advance
 // (this step's integration from the same state); the mass-only h^2 / m_i where the block is not
 // available or not positive.
-double local_compliance(const Body& body, size_t i, const Vec3& n, double dt, bool blocks) {
+double local_compliance(const Body& body, size_t i, const Vec3& n, double dt) {
   const double mass_only = dt * dt / body.masses[i];
-  if (!blocks) return mass_only;
   const auto* fem = dynamic_cast<const CorotationalFem*>(body.model.get());
   if (fem == nullptr || fem->diagonal_system_blocks().size() != body.positions.size()) return mass_only;
   const Mat3& D = fem->diagonal_system_blocks()[i];
@@ -153,11 +152,11 @@ void ImplicitContactCorrection::correct(std::span<Body* const> bodies,
       }
       k.target = (colliding->positions[static_cast<size_t>(k.vertex)] - on_triangle).dot(k.normal);
       if (settings.coupled_block_preconditioner) {
-        k.scale = local_compliance(*colliding, static_cast<size_t>(k.vertex), k.normal, dt, true);
+        k.scale = local_compliance(*colliding, static_cast<size_t>(k.vertex), k.normal, dt);
         for (size_t j = 0; j < 3; ++j) {
           const auto v = static_cast<size_t>(tri[j]);
           if (penetrated->fixed[v] == 0) {
-            k.scale += k.weight[j] * k.weight[j] * local_compliance(*penetrated, v, k.normal, dt, true);
+            k.scale += k.weight[j] * k.weight[j] * local_compliance(*penetrated, v, k.normal, dt);
           }
         }
       } else {  // session 7's mass-only scale, its arithmetic as it was
