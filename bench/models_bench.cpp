@@ -169,7 +169,9 @@ BENCHMARK(BM_StiffnessProduct)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 // K' reuse between steps (session 5: tolerance 0, every row summed); 4: as 1 stopped before the
 // first CG iteration (session 7: the step's cost besides its iterations, i.e. linearisation, K'
 // rows, preconditioner, right-hand side, warm start, the residual's first transform and the update;
-// (/1 - /4) / 20 is one SSOR-PCG iteration). The residual counter is the relative CG residual the
+// (/1 - /4) / 20 is one SSOR-PCG iteration); 5, 6: as 1 with the exact / the AVX2-FMA sweeps
+// (session 8); 7: as 1 with the fixed part's AVX2 kernels off (session 9: the scalar K' rows and 2-lane
+// rotations, the same result bit for bit). The residual counter is the relative CG residual the
 // iterations reach, rows_summed the K' rows the step summed again.
 void BM_CorotationalImplicitStep(benchmark::State& state) {
   const auto arg = state.range(0);
@@ -183,6 +185,7 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
   if (arg == 3) model.set_stiffness_rotation_tolerance(0.0);
   if (arg == 5) model.set_fused_sweeps(false);
   if (arg == 6) model.set_fused_sweeps(true);
+  if (arg == 7) model.set_vector_kernels(false);
   beam.settle(model);
   if (arg == 4) {  // the same settled state, then no iteration
     ModelAccuracy accuracy = model.accuracy();
@@ -210,9 +213,10 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
                  : arg == 3 ? "assembled, ssor, no K' reuse"
                  : arg == 4 ? "assembled, ssor, no iteration"
                  : arg == 5 ? "assembled, ssor, exact sweeps"
-                            : "assembled, ssor, fused sweeps");
+                 : arg == 6 ? "assembled, ssor, fused sweeps"
+                            : "assembled, ssor, scalar fixed part");
 }
-BENCHMARK(BM_CorotationalImplicitStep)->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CorotationalImplicitStep)->DenseRange(0, 7)->Unit(benchmark::kMillisecond);
 
 // The same step solved to a relative residual instead of a fixed iteration count (session 4): arg
 // 0 to the residual that 20 block-Jacobi iterations reach on this step (measured 0.428, see

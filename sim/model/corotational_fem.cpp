@@ -11,7 +11,9 @@
 
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/preconditioned_cg.h"
+#include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
+#include "sim/model/stiffness_row_kernels.h"
 
 namespace pliant {
 
@@ -55,7 +57,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       beta_(material.stiffness_damping),
       accuracy_(settings.accuracy),
       product_(product),
-      fused_sweeps_(fused_sweeps_available()) {
+      fused_sweeps_(fused_sweeps_available()),
+      vector_kernels_(stiffness_row_kernels_available() && rotation_batch_avx2_available()) {
   const auto& X = mesh_->rest_positions();
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   rest_shape_inverse_.resize(nt);
@@ -231,6 +234,14 @@ void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
 // while it is in L1 and the 3x3-block matrix streams out once. The tet-by-tet scatter it replaces
 // spent ~60% of its time waiting on first-touch cache misses in the 2 MB of blocks (perf, beam).
 void CorotationalFem::assemble_row(size_t i, const Mat3* gradients) {
+  if (vector_kernels_) {  // the same blocks bit for bit, in AVX2 lanes (stiffness_row_kernels.h)
+    static_assert(sizeof(TetCorner) == 2 * sizeof(int) && sizeof(tet_blocks_[0]) == 16 * sizeof(int));
+    const StiffnessRowSystem sys{blocks_.data()->data(), gradients->data(), volume_.data(), tet_blocks_.data()->data(),
+                                 &corners_.data()->tet, mu_, lambda_};
+    sum_stiffness_row(sys, static_cast<size_t>(block_row_offsets_[i]), static_cast<size_t>(block_row_offsets_[i + 1]),
+                      static_cast<size_t>(corner_offsets_[i]), static_cast<size_t>(corner_offsets_[i + 1]));
+    return;
+  }
   double* blocks = blocks_.data()->data();
   const double* volume = volume_.data();
   const TetCorner* corners = corners_.data();
@@ -318,14 +329,17 @@ double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
   // Rotations kRotationBatchLanes tets at a time (extract_rotations_batch: the scalar's result bit
-  // for bit, the latency-bound iterations of the lanes overlapped), the rest tet by tet in order.
-  constexpr size_t L = kRotationBatchLanes;
-  Mat3 F[L];
+  // for bit, the latency-bound iterations of the lanes overlapped), four in AVX2 registers where
+  // the CPU has them (session 9, rotation_batch_avx2.h), the rest tet by tet in order.
+  const size_t L = vector_kernels_ ? kRotationBatchLanesAvx2 : kRotationBatchLanes;
+  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
   for (size_t t0 = 0; t0 < nt; t0 += L) {
     const size_t lanes = std::min(L, nt - t0);
     for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
     if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
-    if (lanes == L) {
+    if (lanes == L && vector_kernels_) {
+      extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+    } else if (lanes == L) {
       extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
     } else {
       for (size_t l = 0; l < lanes; ++l) {
@@ -725,6 +739,10 @@ CorotationalFem::CgOutcome CorotationalFem::solve_jacobi(double residual, double
 }
 
 void CorotationalFem::set_fused_sweeps(bool on) { fused_sweeps_ = on && fused_sweeps_available(); }
+
+void CorotationalFem::set_vector_kernels(bool on) {
+  vector_kernels_ = on && stiffness_row_kernels_available() && rotation_batch_avx2_available();
+}
 
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)
 // in Eisenstat's form (Eisenstat 1981; Saad, Iterative Methods for Sparse Linear Systems, 9.2.3):

@@ -111,6 +111,13 @@ class CorotationalFem final : public DeformationModel {
   void set_fused_sweeps(bool on);
   /// True when the SSOR sweeps run the AVX2/FMA kernels.
   bool fused_sweeps() const { return fused_sweeps_; }
+  /// The step's fixed part in AVX2 lanes (session 9; on by default where the CPU has AVX2): K' rows
+  /// (stiffness_row_kernels.h) and the evaluation pass's rotations four tets at a time
+  /// (rotation_batch_avx2.h), bit for bit the scalar code's results. false: the code before.
+  /// Ignored without AVX2.
+  void set_vector_kernels(bool on);
+  /// True when the fixed part runs the AVX2 kernels.
+  bool vector_kernels() const { return vector_kernels_; }
   /// True while the assembled K' matches the current rotations: set inside advance and by
   /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
   /// and by a query's full pass.
@@ -260,6 +267,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
   bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: on where available)
+  bool vector_kernels_ = false;  ///< set_vector_kernels (the constructor: on where available)
 
   // Local queries (sim/model/corotational_local_query.cpp): each tet around the asked vertices is
   // evaluated once per query, into a slot; buffers sized on first use and kept.

@@ -131,37 +131,54 @@ inline constexpr int kRotationBatchLanes = 2;
 // with FMA contraction, -march=native, both may round differently). A lane that stopped keeps its
 // q, G and count; the batch runs until every lane stopped.
 namespace rotation_batch_detail {
-using Lanes = double __attribute__((vector_size(sizeof(double) * kRotationBatchLanes)));
-using Mask = long __attribute__((vector_size(sizeof(long) * kRotationBatchLanes)));  ///< lane true: -1
+/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1). Spelled out
+/// per L: GCC does not apply a vector_size that depends on a template parameter.
+template <int L>
+struct LaneTypes;
+template <>
+struct LaneTypes<2> {
+  typedef double Lanes __attribute__((vector_size(16)));
+  typedef long Mask __attribute__((vector_size(16)));
+};
+template <>
+struct LaneTypes<4> {
+  typedef double Lanes __attribute__((vector_size(32)));
+  typedef long Mask __attribute__((vector_size(32)));
+};
 static_assert(sizeof(long) == sizeof(double), "masks as wide as the lanes");
+template <int L, class Mask>
 inline bool any(const Mask& m) {
-  for (int l = 0; l < kRotationBatchLanes; ++l) {
+  for (int l = 0; l < L; ++l) {
     if (m[l] != 0) return true;
   }
   return false;
 }
 }  // namespace rotation_batch_detail
 
-/// extract_rotation for kRotationBatchLanes tets at once (F[l], warm starts q[l]), bit for bit the
-/// scalar's result per lane; iterations[l] (optional) receives each lane's count.
-inline void extract_rotations_batch(const Mat3* F, Quat* q, int max_iterations, double tolerance,
+/// extract_rotation for L tets at once (F[l], warm starts q[l]), bit for bit the scalar's result
+/// per lane; iterations[l] (optional) receives each lane's count. L = 4 wants AVX registers (see
+/// extract_rotations_batch_avx2 in sim/model/rotation_batch_avx2.h for the run-time choice).
+template <int L>
+inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
                                     int* iterations = nullptr) {
-  using rotation_batch_detail::Lanes;
-  using rotation_batch_detail::Mask;
-  constexpr int L = kRotationBatchLanes;
-  // Gathered through memcpy (element inserts into vector arrays trip GCC's maybe-uninitialized).
-  const auto gather = [](auto value_of_lane) {
+  using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
+  using Mask = typename rotation_batch_detail::LaneTypes<L>::Mask;
+  // Gathered through memcpy (element inserts into vector arrays trip GCC's maybe-uninitialized);
+  // written through a reference, not returned (a 32-byte vector returned by a helper compiled
+  // without AVX would change the ABI: -Wpsabi).
+  const auto gather = [](Lanes& v, auto value_of_lane) {
     double values[L];
     for (int l = 0; l < L; ++l) values[l] = value_of_lane(l);
-    Lanes v;
     std::memcpy(&v, values, sizeof(v));
-    return v;
   };
   Lanes G[3][3], Fl[3][3];  // G(i, j) and F(i, j) per lane
-  Lanes qx = gather([&](int l) { return q[l].x(); }), qy = gather([&](int l) { return q[l].y(); }),
-        qz = gather([&](int l) { return q[l].z(); }), qw = gather([&](int l) { return q[l].w(); });
+  Lanes qx, qy, qz, qw;
+  gather(qx, [&](int l) { return q[l].x(); });
+  gather(qy, [&](int l) { return q[l].y(); });
+  gather(qz, [&](int l) { return q[l].z(); });
+  gather(qw, [&](int l) { return q[l].w(); });
   for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) Fl[i][j] = gather([&](int l) { return F[l](i, j); });
+    for (int j = 0; j < 3; ++j) gather(Fl[i][j], [&](int l) { return F[l](i, j); });
   }
   // rotation_iteration_start in the lanes: R = q.toRotationMatrix() (Eigen's expressions), G = R^T F.
   {
@@ -194,7 +211,7 @@ inline void extract_rotations_batch(const Mat3* F, Quat* q, int max_iterations, 
   const Mask all_lanes = zero < zero + 1.0, no_lanes = {};
   Mask active = all_lanes;
   Lanes count = zero;
-  for (int it = 0; it < max_iterations && rotation_batch_detail::any(active); ++it) {
+  for (int it = 0; it < max_iterations && rotation_batch_detail::any<L>(active); ++it) {
     const Lanes g0 = G[2][1] - G[1][2], g1 = G[0][2] - G[2][0], g2 = G[1][0] - G[0][1];
     const Lanes tr = G[0][0] + (G[1][1] + G[2][2]);  // Eigen's unrolled trace: a + (b + c)
     const Lanes denom = (tr < 0.0 ? -tr : tr) + 1e-9;
@@ -235,7 +252,7 @@ inline void extract_rotations_batch(const Mat3* F, Quat* q, int max_iterations, 
     const Lanes newton_angle_sq = newton_step ? angle_sq : zero;  // < 1 where the scalar squares it
     const Mask last = (newton_step & (newton_angle_sq * newton_angle_sq < tolerance_sq)) | at_cap;
     active = moves & ~last;
-    if (!rotation_batch_detail::any(active)) break;
+    if (!rotation_batch_detail::any<L>(active)) break;
     // G <- n^2 Q^T G (extract_rotation's update) for the lanes that go on; the others by Q = 4 I
     // (u = 0, w = 2), discarded.
     const Lanes v0 = active ? u0 : zero, v1 = active ? u1 : zero, v2 = active ? u2 : zero;
@@ -257,6 +274,13 @@ inline void extract_rotations_batch(const Mat3* F, Quat* q, int max_iterations, 
     q[l].normalize();
     if (iterations != nullptr) iterations[l] = static_cast<int>(count[l]);
   }
+}
+
+/// extract_rotation for kRotationBatchLanes tets at once (F[l], warm starts q[l]), bit for bit the
+/// scalar's result per lane; iterations[l] (optional) receives each lane's count.
+inline void extract_rotations_batch(const Mat3* F, Quat* q, int max_iterations, double tolerance,
+                                    int* iterations = nullptr) {
+  extract_rotations_lanes<kRotationBatchLanes>(F, q, max_iterations, tolerance, iterations);
 }
 
 }  // namespace pliant

@@ -1,4 +1,5 @@
-// The batched rotation extraction (kRotationBatchLanes tets per call) against the scalar extract_rotation, the
+// The batched rotation extraction (kRotationBatchLanes tets per call, and since session 9 four
+// AVX2 lanes chosen at run time) against the scalar extract_rotation, the
 // reference it must equal bit for bit: every lane repeats the scalar's operations in the scalar's
 // order, and a lane that stopped must not move while the others go on. Inputs cover what the FEM
 // meets: small strains of rotated tets with nearby warm starts (one or two Newton steps), large
@@ -13,6 +14,7 @@
 #include <random>
 #include <vector>
 
+#include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
 
 namespace pliant {
@@ -78,10 +80,11 @@ void make_case(std::mt19937_64& rng, int kind, Mat3& F, Quat& warm) {
   }
 }
 
-TEST(RotationExtractionBatch, EveryLaneEqualsTheScalarExtractionBitForBit) {
+/// 20,000 batches of L lanes through `batch` (a batched extraction), each lane against the scalar.
+template <int L, class Batch>
+void expect_every_lane_equals_the_scalar(Batch batch_extraction) {
   std::mt19937_64 rng(20261121);
   std::uniform_int_distribution<int> kinds(0, 6);
-  constexpr int L = kRotationBatchLanes;
   int compared = 0, iterations_seen = 0;
   for (int trial = 0; trial < 20000; ++trial) {
     Mat3 F[L];
@@ -97,7 +100,7 @@ TEST(RotationExtractionBatch, EveryLaneEqualsTheScalarExtractionBitForBit) {
     }
     const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
     const double tolerance = trial % 7 == 0 ? 1e-13 : kElementRotationTolerance;
-    extract_rotations_batch(F, batch, cap, tolerance, iterations);
+    batch_extraction(F, batch, cap, tolerance, iterations);
     for (int l = 0; l < L; ++l) {
       scalar_iterations[l] = extract_rotation(F[l], scalar[l], cap, tolerance);
 #ifdef __FMA__
@@ -119,6 +122,22 @@ TEST(RotationExtractionBatch, EveryLaneEqualsTheScalarExtractionBitForBit) {
   }
   EXPECT_EQ(compared, 20000 * L);
   EXPECT_GT(iterations_seen, compared);  // more than one iteration per lane on average: the loop ran
+}
+
+TEST(RotationExtractionBatch, EveryLaneEqualsTheScalarExtractionBitForBit) {
+  expect_every_lane_equals_the_scalar<kRotationBatchLanes>(
+      [](const Mat3* F, Quat* q, int cap, double tolerance, int* iterations) {
+        extract_rotations_batch(F, q, cap, tolerance, iterations);
+      });
+}
+
+// Session 9: the same template in four AVX2 lanes, chosen at run time (rotation_batch_avx2.h).
+TEST(RotationExtractionBatch, AvxLanesEqualTheScalarExtractionBitForBit) {
+  if (!rotation_batch_avx2_available()) GTEST_SKIP() << "no AVX2 on this CPU";
+  expect_every_lane_equals_the_scalar<kRotationBatchLanesAvx2>(
+      [](const Mat3* F, Quat* q, int cap, double tolerance, int* iterations) {
+        extract_rotations_batch_avx2(F, q, cap, tolerance, iterations);
+      });
 }
 
 }  // namespace

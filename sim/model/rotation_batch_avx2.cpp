@@ -1,0 +1,36 @@
+#include "sim/model/rotation_batch_avx2.h"
+
+#include "sim/model/rotation_extraction.h"
+
+namespace pliant {
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+
+bool rotation_batch_avx2_available() {
+  static const bool available = __builtin_cpu_supports("avx2");
+  return available;
+}
+
+// "flatten" inlines the template (and what it calls) here, so it is compiled for AVX2; "avx2"
+// without "fma" keeps every multiply and add separately rounded (GCC contracts a * b + c by
+// default where FMA is enabled).
+__attribute__((target("avx2"), flatten)) void extract_rotations_batch_avx2(const Mat3* F, Quat* q,
+                                                                           int max_iterations, double tolerance,
+                                                                           int* iterations) {
+  extract_rotations_lanes<kRotationBatchLanesAvx2>(F, q, max_iterations, tolerance, iterations);
+}
+
+#else
+
+bool rotation_batch_avx2_available() { return false; }
+
+void extract_rotations_batch_avx2(const Mat3* F, Quat* q, int max_iterations, double tolerance, int* iterations) {
+  for (int l = 0; l < kRotationBatchLanesAvx2; ++l) {
+    const int it = extract_rotation(F[l], q[l], max_iterations, tolerance);
+    if (iterations != nullptr) iterations[l] = it;
+  }
+}
+
+#endif
+
+}  // namespace pliant

@@ -1,0 +1,40 @@
+// The K' row assembly's per-block arithmetic in 256-bit lanes (AVX2, no FMA), chosen at run time
+// (session 9, issue #3). Design note: CorotationalFem::assemble_row sums vertex row i of the
+// upper-triangle K' from the corners of the tets around i, each block
+//   R K_ab R^T = V (mu (r_a . r_b) I + mu r_b r_a^T + lambda r_a r_b^T)   (a != b),
+//   R K_aa R^T = V ((mu + lambda) r_a r_a^T + mu |r_a|^2 I),
+// entry by entry in scalar code (~50 instructions per off-diagonal block). Here the nine entries
+// of a column-major block are two 4-lane vectors (entries 0-3 and 4-7) plus entry 8: the factors
+// of each entry are permuted into its lane, and every lane performs exactly the scalar
+// expression's multiplications and additions in the same order (no FMA: the functions are
+// compiled for "avx2" only, so the compiler cannot contract), the sum r_a . r_b stays scalar. So
+// the blocks are the scalar code's bit for bit (tested: corotational_stiffness_row_kernels_test),
+// and nothing downstream changes. Compiled by function attribute, so the portable build keeps
+// running on CPUs without AVX2 (stiffness_row_kernels_available()).
+#pragma once
+
+#include <cstddef>
+
+namespace pliant {
+
+/// True when this CPU runs sum_stiffness_row.
+bool stiffness_row_kernels_available();
+
+/// What one vertex row's assembly reads and writes (CorotationalFem's arrays as raw pointers).
+struct StiffnessRowSystem {
+  double* blocks;            ///< K' upper-triangle 3x3 blocks, column-major, 9 doubles each
+  const double* gradients;   ///< per tet its rotated shape gradients R Dm^-T (columns r_1..r_3), 9 doubles
+  const double* volume;      ///< per tet its rest volume (m^3)
+  const int* tet_blocks;     ///< per tet 16 block slots (a * 4 + b; -1: below the diagonal)
+  const int* corners;        ///< (tet, local index) pairs of the tets around each vertex
+  double mu;                 ///< Lame mu (Pa)
+  double lambda;             ///< Lame lambda (Pa)
+};
+
+/// Zeroes the blocks [first_block, last_block) of a vertex row and sums into them the blocks of
+/// the corners [first_corner, last_corner) (the vertex's, ascending tet): bit for bit
+/// CorotationalFem's scalar assemble_row. Only where stiffness_row_kernels_available().
+void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t last_block, size_t first_corner,
+                       size_t last_corner);
+
+}  // namespace pliant
