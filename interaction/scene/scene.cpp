@@ -51,7 +51,7 @@ Material read_material(const JsonReader& j) {
 
 ModelSettings read_model_settings(const JsonReader& j) {
   j.expect_keys({"max_solver_iterations", "solver_tolerance", "distance_stiffness", "volume_stiffness",
-                 "area_stiffness", "distance_damping"});
+                 "area_stiffness", "distance_damping", "fused_sweeps"});
   ModelSettings s;
   if (auto it = j.find("max_solver_iterations")) {
     s.accuracy.max_solver_iterations = it->integer();
@@ -62,6 +62,7 @@ ModelSettings read_model_settings(const JsonReader& j) {
   s.volume_stiffness = j.non_negative_number_or("volume_stiffness", s.volume_stiffness);
   s.area_stiffness = j.non_negative_number_or("area_stiffness", s.area_stiffness);
   s.distance_damping = j.non_negative_number_or("distance_damping", s.distance_damping);
+  s.fused_sweeps = j.boolean_or("fused_sweeps", s.fused_sweeps);
   return s;
 }
 

@@ -57,7 +57,7 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       beta_(material.stiffness_damping),
       accuracy_(settings.accuracy),
       product_(product),
-      fused_sweeps_(fused_sweeps_available()),
+      fused_sweeps_(settings.fused_sweeps && fused_sweeps_available()),
       vector_kernels_(stiffness_row_kernels_available() && rotation_batch_avx2_available()) {
   const auto& X = mesh_->rest_positions();
   const auto nt = static_cast<size_t>(mesh_->tet_count());

@@ -266,7 +266,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
   std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
-  bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: on where available)
+  bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: ModelSettings::fused_sweeps where available)
   bool vector_kernels_ = false;  ///< set_vector_kernels (the constructor: on where available)
 
   // Local queries (sim/model/corotational_local_query.cpp): each tet around the asked vertices is

@@ -34,6 +34,9 @@ struct ModelSettings {
   double volume_stiffness = 0.0;
   double area_stiffness = 0.0;
   double distance_damping = 0.0;  ///< k_d on distance constraints; zero means derive
+  /// Corotational FEM: the SSOR-PCG iteration in the AVX2/FMA kernels where the CPU has them (the
+  /// default since session 8); false: the exact sweeps, bit for bit the solve before session 8.
+  bool fused_sweeps = true;
 };
 
 /// What one step of a model did.

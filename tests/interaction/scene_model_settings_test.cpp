@@ -1,0 +1,70 @@
+// The body's "model_settings" object reads fused_sweeps (docs/scene-format.md): the boolean reaches
+// the corotational FEM's SSOR sweeps (the AVX2/FMA kernels where the CPU has them, or the exact
+// sweeps), and a value of the wrong type is an error naming its JSON path.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "interaction/scene/scene.h"
+#include "sim/input_error.h"
+#include "sim/model/corotational_fem.h"
+#include "sim/model/fused_ssor_kernels.h"
+#include "sim/world.h"
+
+namespace pliant {
+namespace {
+
+nlohmann::json probe_coarse_json() {
+  std::ifstream in(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/probe_coarse.json");
+  return nlohmann::json::parse(in);
+}
+
+/// The first deformable body's corotational FEM in an instantiated scene (null if none).
+const CorotationalFem* first_fem(const SceneInstance& instance) {
+  for (BodyId id : instance.bodies) {
+    const Body& body = instance.world->body(id);
+    if (const auto* fem = dynamic_cast<const CorotationalFem*>(body.model.get())) return fem;
+  }
+  return nullptr;
+}
+
+TEST(SceneFormat, ModelSettingsFusedSweepsReachesTheModel) {
+  nlohmann::json j = probe_coarse_json();
+  auto& bodies = j["bodies"];
+  size_t tissue = 0;
+  while (tissue < bodies.size() && bodies[tissue].value("kinematic", false)) ++tissue;
+  ASSERT_LT(tissue, bodies.size());
+
+  // Default: on where the CPU has AVX2/FMA (session 8), off elsewhere.
+  const Scene default_scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_TRUE(default_scene.bodies[tissue].model_settings.fused_sweeps);
+  const SceneInstance default_instance = instantiate_scene(default_scene);
+  const CorotationalFem* fem = first_fem(default_instance);
+  ASSERT_NE(fem, nullptr);
+  EXPECT_EQ(fem->fused_sweeps(), fused_sweeps_available());
+
+  // false: the exact sweeps.
+  j["bodies"][tissue]["model_settings"]["fused_sweeps"] = false;
+  const Scene exact_scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_FALSE(exact_scene.bodies[tissue].model_settings.fused_sweeps);
+  const SceneInstance exact_instance = instantiate_scene(exact_scene);
+  fem = first_fem(exact_instance);
+  ASSERT_NE(fem, nullptr);
+  EXPECT_FALSE(fem->fused_sweeps());
+
+  // A non-boolean names its path.
+  for (const nlohmann::json& bad : {nlohmann::json(1), nlohmann::json("on")}) {
+    j["bodies"][tissue]["model_settings"]["fused_sweeps"] = bad;
+    try {
+      parse_scene(j, "probe_coarse.json", ".");
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const InputError& e) {
+      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/fused_sweeps";
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pliant
