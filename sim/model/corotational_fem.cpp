@@ -644,6 +644,13 @@ struct SsorSweeps {
 }  // namespace
 
 Vec3 CorotationalFem::row_product(size_t i, std::span<const Vec3> p, std::span<Vec3> y) const {
+  if (vector_kernels_) {  // the same sums bit for bit, in AVX2 lanes (stiffness_row_kernels.h)
+    Vec3 result;
+    stiffness_row_product(blocks_.data()->data(), block_cols_.data(), static_cast<size_t>(block_row_offsets_[i]),
+                          static_cast<size_t>(block_row_offsets_[i + 1]), i, p.data()->data(), y.data()->data(),
+                          result.data());
+    return result;
+  }
   const double* __restrict m = blocks_.data()->data();
   const int* __restrict cols = block_cols_.data();
   const double* __restrict q = p.data()->data();

@@ -116,9 +116,54 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
   }
 }
 
+namespace {
+
+/// The packed xyz triple at v in lanes 0..2, lane 3 zero (no read past the triple).
+PLIANT_AVX2_ONLY inline __m256d load3(const double* v) {
+  return _mm256_maskload_pd(v, _mm256_set_epi64x(0, -1, -1, -1));
+}
+
+/// (c0 x0 + c1 x1) + c2 x2 lane-wise (a 3x3 block's columns times a triple, the scalar's order).
+PLIANT_AVX2_ONLY inline __m256d block_times(__m256d c0, __m256d c1, __m256d c2, const double* x) {
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(c0, _mm256_broadcast_sd(x)), _mm256_mul_pd(c1, _mm256_broadcast_sd(x + 1))),
+                       _mm256_mul_pd(c2, _mm256_broadcast_sd(x + 2)));
+}
+
+}  // namespace
+
+PLIANT_AVX2_ONLY void stiffness_row_product(const double* blocks, const int* cols, size_t first_block,
+                                            size_t last_block, size_t i, const double* p, double* y, double* result) {
+  const double* pi = p + 3 * i;
+  const __m256d pv = load3(pi);
+  const __m256d minus_zero = _mm256_set1_pd(-0.0);
+  // Block columns: lanes 0..2 (lane 3 is the next column's first entry, or zero for the third).
+  const double* D = blocks + 9 * first_block;
+  __m256d yi = _mm256_add_pd(load3(y + 3 * i),
+                             block_times(_mm256_loadu_pd(D), _mm256_loadu_pd(D + 3), load3(D + 6), pi));
+  for (size_t b = first_block + 1; b < last_block; ++b) {
+    const double* B = blocks + 9 * b;
+    const __m256d c0 = _mm256_loadu_pd(B), c1 = _mm256_loadu_pd(B + 3), c2 = load3(B + 6);
+    double* yj = y + 3 * static_cast<size_t>(cols[b]);
+    yi = _mm256_add_pd(yi, block_times(c0, c1, c2, p + 3 * static_cast<size_t>(cols[b])));
+    // (B^T p_i)_k = (B_0k pi_0 + B_1k pi_1) + B_2k pi_2: lane products, lane 3 set to -0.0, pairs.
+    const __m256d q0 = _mm256_blend_pd(_mm256_mul_pd(c0, pv), minus_zero, 0x8);
+    const __m256d q1 = _mm256_blend_pd(_mm256_mul_pd(c1, pv), minus_zero, 0x8);
+    const __m256d q2 = _mm256_blend_pd(_mm256_mul_pd(c2, pv), minus_zero, 0x8);
+    const __m256d h01 = _mm256_hadd_pd(q0, q1);  // (q0_0+q0_1, q1_0+q1_1, q0_2, q1_2)
+    const __m256d h22 = _mm256_hadd_pd(q2, q2);  // (q2_0+q2_1, ., q2_2, .)
+    const __m256d d = _mm256_add_pd(_mm256_permute2f128_pd(h01, h22, 0x20), _mm256_permute2f128_pd(h01, h22, 0x31));
+    _mm_storeu_pd(yj, _mm_add_pd(_mm_loadu_pd(yj), _mm256_castpd256_pd128(d)));
+    yj[2] += _mm_cvtsd_f64(_mm256_extractf128_pd(d, 1));
+  }
+  _mm_storeu_pd(result, _mm256_castpd256_pd128(yi));
+  result[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(yi, 1));
+}
+
 #else
 
 bool stiffness_row_kernels_available() { return false; }
+
+void stiffness_row_product(const double*, const int*, size_t, size_t, size_t, const double*, double*, double*) {}
 
 void sum_stiffness_row(const StiffnessRowSystem&, size_t, size_t, size_t, size_t) {}
 

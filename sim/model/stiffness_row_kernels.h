@@ -1,5 +1,5 @@
-// The K' row assembly's per-block arithmetic in 256-bit lanes (AVX2, no FMA), chosen at run time
-// (session 9, issue #3). Design note: CorotationalFem::assemble_row sums vertex row i of the
+// The K' row assembly's per-block arithmetic, and the row product, in 256-bit lanes (AVX2, no
+// FMA), chosen at run time (session 9, issue #3). Design note: CorotationalFem::assemble_row sums vertex row i of the
 // upper-triangle K' from the corners of the tets around i, each block
 //   R K_ab R^T = V (mu (r_a . r_b) I + mu r_b r_a^T + lambda r_a r_b^T)   (a != b),
 //   R K_aa R^T = V ((mu + lambda) r_a r_a^T + mu |r_a|^2 I),
@@ -9,7 +9,10 @@
 // expression's multiplications and additions in the same order (no FMA: the functions are
 // compiled for "avx2" only, so the compiler cannot contract), the sum r_a . r_b stays scalar. So
 // the blocks are the scalar code's bit for bit (tested: corotational_stiffness_row_kernels_test),
-// and nothing downstream changes. Compiled by function attribute, so the portable build keeps
+// and nothing downstream changes. The row product (K' v and K' dv of the right-hand side) the
+// same way: the gather sum_j K'_ij p_j column by column in the lanes of y_i, the scatter K'_ij^T p_i
+// as products in lanes and pairwise horizontal adds, (B_0k p_0 + B_1k p_1) + B_2k p_2 as the scalar
+// (the unused fourth product set to -0.0, which added to any x gives x, signed zeros included). Compiled by function attribute, so the portable build keeps
 // running on CPUs without AVX2 (stiffness_row_kernels_available()).
 #pragma once
 
@@ -36,5 +39,12 @@ struct StiffnessRowSystem {
 /// CorotationalFem's scalar assemble_row. Only where stiffness_row_kernels_available().
 void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t last_block, size_t first_corner,
                        size_t last_corner);
+
+/// Row i of the upper-triangle product y = K' p (CorotationalFem::row_product, bit for bit): returns
+/// in result y_i + K'_ii p_i + sum_j K'_ij p_j and adds K'_ij^T p_i to y_j, j > i, for the blocks
+/// [first_block, last_block) of row i (the first is K'_ii). Vectors packed xyz per vertex. Only
+/// where stiffness_row_kernels_available().
+void stiffness_row_product(const double* blocks, const int* cols, size_t first_block, size_t last_block, size_t i,
+                           const double* p, double* y, double* result);
 
 }  // namespace pliant
