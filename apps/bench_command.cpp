@@ -233,6 +233,10 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
 
   nlohmann::json rows = nlohmann::json::array();
   bool failed = false;
+  if (options.cpu_time && options.threads && *options.threads > 1) {
+    log << "note: --cpu-time counts the stepping thread's CPU only, not the other threads' work: compare "
+           "thread counts by wall time (docs/threads.md)\n";
+  }
   log << std::left << std::setw(32) << "scene" << std::right << std::setw(8) << "verts" << std::setw(8)
       << "tets" << std::setw(8) << "tris" << std::setw(9) << "step50" << std::setw(9) << "step99"
       << std::setw(9) << "integ" << std::setw(9) << "detect" << std::setw(9) << "depth" << std::setw(9)
@@ -243,6 +247,7 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
   for (const auto& file : files) {
     Scene scene = load_scene(file.string());
     if (options.contact) scene.world.contact.method = contact_method_from_string(*options.contact);
+    if (options.threads) scene.threads = *options.threads;
     std::vector<std::pair<Scene, std::string>> variants = {{scene, ""}};
     if (options.friction_variants && uses_friction(scene)) {
       Scene off = scene;
@@ -268,6 +273,7 @@ int run_bench(const BenchOptions& options, std::ostream& log) {
                                 {"warm_up_steps", options.warm_up_steps},
                                 {"clock", options.cpu_time ? "thread_cpu_time" : "steady_clock"},
                                 {"window_steps", options.window_steps},
+                                {"threads", options.threads ? *options.threads : 0},
                                 {"percentiles", "nearest rank"},
                                 {"rows", rows}};
     write_file_atomically(options.json, doc.dump(2) + "\n");
@@ -386,6 +392,7 @@ int run_haptic_bench(const BenchOptions& options, std::ostream& log) {
   for (const auto& file : files) {
     Scene scene = load_scene(file.string());
     if (options.contact) scene.world.contact.method = contact_method_from_string(*options.contact);
+    if (options.threads) scene.threads = *options.threads;
     if (scene.instruments.empty()) {
       log << scene.name << ": no instruments, skipped\n";
       continue;

@@ -31,6 +31,7 @@ struct BenchOptions {
   bool haptic = false;                 ///< the haptic benchmark instead (run_haptic_bench)
   double seconds = 10.0;               ///< haptic benchmark: wall-clock seconds per scene
   bool realtime_priority = true;       ///< haptic benchmark: ask SCHED_FIFO for the haptic thread
+  std::optional<int> threads;          ///< override the scenes' "threads" (>= 1; docs/threads.md)
 };
 
 /// Runs the benchmark and prints the table to `log`. Returns 0, or 1 if a scene's step failed

@@ -34,11 +34,15 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--no-haptics", no_haptics, "With --realtime: no haptic thread");
   run_cmd->add_flag("--no-rt-priority", no_rt_priority, "With --realtime: do not ask SCHED_FIFO for the haptic thread");
   run_cmd->add_flag("--quiet", run.quiet, "Print nothing on success");
+  int run_threads = 0;
+  auto* run_threads_opt = run_cmd->add_option("--threads", run_threads, "Threads the step runs on (overrides the scene's)")
+                              ->check(CLI::Range(1, 256));
   run_cmd->callback([&] {
     if (!contact.empty()) run.contact = contact;
     if (iterations >= 0) run.binary_search_iterations = iterations;
     run.haptics = !no_haptics;
     run.realtime_priority = !no_rt_priority;
+    if (run_threads_opt->count() > 0) run.threads = run_threads;
     exit_code = pliant::run_scene(run, std::cout);
   });
 
@@ -96,6 +100,10 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--window", bench.window_steps,
                         "Also profile every K timed steps (stage p50s, awake bodies) against simulated time")
       ->check(CLI::NonNegativeNumber);
+  int bench_threads = 0;
+  auto* bench_threads_opt =
+      bench_cmd->add_option("--threads", bench_threads, "Threads the step runs on (overrides the scenes'; time it by wall clock)")
+          ->check(CLI::Range(1, 256));
   bool bench_no_rt = false;
   bench_cmd->add_flag("--haptic", bench.haptic,
                       "Haptic benchmark: physics back to back with the 1 kHz haptic thread beside it "
@@ -108,6 +116,7 @@ int main(int argc, char** argv) {
     if (!bench_contact.empty()) bench.contact = bench_contact;
     bench.friction_variants = !bench_no_variants;
     bench.realtime_priority = !bench_no_rt;
+    if (bench_threads_opt->count() > 0) bench.threads = bench_threads;
     exit_code = pliant::run_bench(bench, std::cout);
   });
 

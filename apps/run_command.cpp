@@ -80,6 +80,7 @@ nlohmann::json haptic_summary_json(const HapticTiming& timing, const HapticStats
 int run_scene(const RunOptions& options, std::ostream& log) {
   Scene scene = load_scene(options.scene);
   if (options.contact) scene.world.contact.method = contact_method_from_string(*options.contact);
+  if (options.threads) scene.threads = *options.threads;
   if (options.binary_search_iterations) scene.world.contact.binary_search_iterations = *options.binary_search_iterations;
   if (options.finishing_projection) scene.world.contact.finishing_projection = *options.finishing_projection;
   if (options.frames) scene.output.frames = true;

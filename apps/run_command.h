@@ -27,6 +27,7 @@ struct RunOptions {
   bool haptics = true;     ///< with realtime and instruments: run the 1 kHz haptic thread beside physics
   bool realtime_priority = true;  ///< ask SCHED_FIFO for the haptic thread (used if granted)
   bool quiet = false;
+  std::optional<int> threads;  ///< override the scene's "threads" (>= 1; docs/threads.md)
 };
 
 /// Runs the scene. Returns 0 on success, 1 on a runtime failure (a step that could not be

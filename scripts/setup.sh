@@ -24,7 +24,7 @@ cd "$root"
 
 packages=(
   build-essential cmake pkg-config
-  libeigen3-dev nlohmann-json3-dev libcli11-dev
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libosmesa6-dev libglm-dev libpng-dev
   gnuplot-nox

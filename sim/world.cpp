@@ -6,6 +6,7 @@
 #include "sim/contact/contact_surface_response.h"
 #include "sim/contact/penalty_response.h"
 #include "sim/input_error.h"
+#include "sim/parallel/task_executor.h"
 #include "sim/sleep/sleeping.h"
 
 namespace pliant {
@@ -113,6 +114,7 @@ BodyId World::add_body(BodyDef def) {
   }
   if (!body->is_kinematic()) {
     body->model = make_deformation_model(def.model, def.mesh, def.material, def.model_settings);
+    body->model->set_executor(executor_);
   }
 
   // Reuse a free slot, bumping its generation, or append.
@@ -172,6 +174,13 @@ void World::disable_collision(BodyId a, BodyId b) {
 void World::set_kinematic_pose(BodyId id, const Pose& pose) { body(id).target_pose = pose; }
 
 void World::wake(BodyId id) { wake_body(body(id)); }
+
+void World::set_executor(TaskExecutor* executor) {
+  executor_ = executor;
+  for (Body* b : body_view_) {
+    if (b != nullptr && b->model) b->model->set_executor(executor);
+  }
+}
 
 void World::rebuild_body_view() {
   body_view_.clear();
@@ -255,37 +264,61 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
 }
 
 void World::integrate(double dt) {
-  for (Body* body : body_view_) {
-    if (body == nullptr) continue;
-    if (body->is_sleeping()) continue;
-    if (body->is_kinematic()) {
-      // Prescribed motion: jump to the target pose; velocity is the finite difference over dt.
-      // A body that kept its pose this step and the last is already there at rest: skip it.
-      const bool moves = body->target_pose.translation != body->pose.translation ||
-                         body->target_pose.rotation.coeffs() != body->pose.rotation.coeffs();
-      const bool was_moving = body->moved_this_step;
-      body->moved_this_step = moves;
-      if (!moves && !was_moving) continue;
-      const auto& rest = body->mesh->rest_positions();
-      for (size_t i = 0; i < rest.size(); ++i) {
-        const Vec3 next = body->target_pose.apply(rest[i]);
-        body->velocities[i] = (next - body->positions[i]) / dt;
-        body->positions[i] = next;
-      }
-      body->pose = body->target_pose;
-      continue;
+  if (!runs_parallel(executor_)) {
+    for (Body* body : body_view_) {
+      if (body == nullptr) continue;
+      const IntegrationResult r = integrate_body(*body, external_forces_, dt);
+      report_.solver_iterations_max = std::max(report_.solver_iterations_max, r.solver_iterations);
+      report_.solver_converged = report_.solver_converged && r.converged;
+      report_.substeps_max = std::max(report_.substeps_max, r.substeps);
     }
-    external_forces_.resize(body->positions.size());
-    for (size_t i = 0; i < external_forces_.size(); ++i) {
-      external_forces_[i] = body->masses[i] * settings_.gravity + body->applied_forces[i];
+    return;
+  }
+  // Threads: each body advances on its own (its model, its scratch, its own held-force entries),
+  // one body per chunk; the results are combined afterwards in slot order (max and and: the same
+  // whatever the order).
+  const size_t slots = body_view_.size();
+  slot_external_forces_.resize(slots);
+  slot_results_.assign(slots, IntegrationResult{});
+  parallel_for_chunks(executor_, slots, 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      if (body_view_[i] != nullptr) slot_results_[i] = integrate_body(*body_view_[i], slot_external_forces_[i], dt);
     }
-    contact_surface_->take_held_forces(*body, external_forces_);  // warm start (ContactSettings)
-    IntegrationInput in{body->masses, body->fixed, external_forces_, dt};
-    const IntegrationResult r = body->model->advance(body->positions, body->velocities, in);
+  });
+  for (const IntegrationResult& r : slot_results_) {
     report_.solver_iterations_max = std::max(report_.solver_iterations_max, r.solver_iterations);
     report_.solver_converged = report_.solver_converged && r.converged;
     report_.substeps_max = std::max(report_.substeps_max, r.substeps);
   }
+}
+
+IntegrationResult World::integrate_body(Body& b, std::vector<Vec3>& external_forces, double dt) {
+  Body* body = &b;
+  if (body->is_sleeping()) return {};
+  if (body->is_kinematic()) {
+    // Prescribed motion: jump to the target pose; velocity is the finite difference over dt.
+    // A body that kept its pose this step and the last is already there at rest: skip it.
+    const bool moves = body->target_pose.translation != body->pose.translation ||
+                       body->target_pose.rotation.coeffs() != body->pose.rotation.coeffs();
+    const bool was_moving = body->moved_this_step;
+    body->moved_this_step = moves;
+    if (!moves && !was_moving) return {};
+    const auto& rest = body->mesh->rest_positions();
+    for (size_t i = 0; i < rest.size(); ++i) {
+      const Vec3 next = body->target_pose.apply(rest[i]);
+      body->velocities[i] = (next - body->positions[i]) / dt;
+      body->positions[i] = next;
+    }
+    body->pose = body->target_pose;
+    return {};
+  }
+  external_forces.resize(body->positions.size());
+  for (size_t i = 0; i < external_forces.size(); ++i) {
+    external_forces[i] = body->masses[i] * settings_.gravity + body->applied_forces[i];
+  }
+  contact_surface_->take_held_forces(*body, external_forces);  // warm start (ContactSettings)
+  IntegrationInput in{body->masses, body->fixed, external_forces, dt};
+  return body->model->advance(body->positions, body->velocities, in);
 }
 
 void World::build_collision_filter() {
@@ -409,19 +442,14 @@ void World::report() {
   }
   report_.body_energy.assign(slots_.size(), EnergyReport{});
   report_.energy = EnergyReport{};
+  // Each body's energies on its own (threads: one body per chunk), summed afterwards in slot order.
+  parallel_for_chunks(executor_, body_view_.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) report_.body_energy[i] = body_energy(i);
+  });
   for (size_t i = 0; i < body_view_.size(); ++i) {
-    Body* body = body_view_[i];
+    const Body* body = body_view_[i];
     if (body == nullptr || body->is_kinematic()) continue;
-    EnergyReport& e = report_.body_energy[i];
-    for (size_t v = 0; v < body->positions.size(); ++v) {
-      e.kinetic += 0.5 * body->masses[v] * body->velocities[v].squaredNorm();
-      e.gravitational -= body->masses[v] * settings_.gravity.dot(body->positions[v] - initial_positions_[i][v]);
-    }
-    if (body->is_sleeping() && body->sleep.has_elastic_energy) {
-      e.elastic = body->sleep.elastic_energy;  // positions unchanged since it fell asleep
-    } else if (settings_.compute_energy) {
-      e.elastic = body->model->elastic_energy(body->positions);
-    }
+    const EnergyReport& e = report_.body_energy[i];
     report_.energy.kinetic += e.kinetic;
     report_.energy.elastic += e.elastic;
     report_.energy.gravitational += e.gravitational;
@@ -429,6 +457,22 @@ void World::report() {
   report_.energy.work_by_kinematic = accumulated_work_.work_by_kinematic;
   report_.energy.work_by_supports = accumulated_work_.work_by_supports;
   if (!std::isfinite(report_.energy.total())) report_.all_finite = false;
+}
+
+EnergyReport World::body_energy(size_t i) {
+  EnergyReport e;
+  Body* body = body_view_[i];
+  if (body == nullptr || body->is_kinematic()) return e;
+  for (size_t v = 0; v < body->positions.size(); ++v) {
+    e.kinetic += 0.5 * body->masses[v] * body->velocities[v].squaredNorm();
+    e.gravitational -= body->masses[v] * settings_.gravity.dot(body->positions[v] - initial_positions_[i][v]);
+  }
+  if (body->is_sleeping() && body->sleep.has_elastic_energy) {
+    e.elastic = body->sleep.elastic_energy;  // positions unchanged since it fell asleep
+  } else if (settings_.compute_energy) {
+    e.elastic = body->model->elastic_energy(body->positions);
+  }
+  return e;
 }
 
 }  // namespace pliant

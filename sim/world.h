@@ -19,6 +19,8 @@
 
 namespace pliant {
 
+class TaskExecutor;
+
 /// A handle to a body: an index plus a generation, checked on use (STYLE.md 4).
 struct BodyId {
   std::uint32_t index = ~0u;
@@ -62,6 +64,12 @@ class World {
   /// Sets where a kinematic body will be after the next step (its velocity follows from dt).
   void set_kinematic_pose(BodyId id, const Pose& pose);
 
+  /// Runs the step's per-body and per-element loops through `executor` (not owned; it must outlive
+  /// its use; null, the default: one thread). Every thread count gives the same bits (docs/threads.md).
+  void set_executor(TaskExecutor* executor);
+  /// The executor the step runs its loops through (null: one thread).
+  TaskExecutor* executor() const { return executor_; }
+
   /// Advances the world by dt (s). Never throws on numerical trouble: a NaN or divergence sets
   /// report.fault, and the world is restored to its state before the step.
   const StepReport& step(double dt, StepProfiler* profiler = nullptr);
@@ -86,6 +94,11 @@ class World {
   /// Opt-in, after respond: re-solves contact bodies' implicit steps with the contact surface prescribed.
   void correct_in_implicit_solve(double dt);
   void report();
+
+  /// One body's integration (integrate's loop body); `external_forces` is its scratch.
+  IntegrationResult integrate_body(Body& body, std::vector<Vec3>& external_forces, double dt);
+  /// Kinetic, gravitational and elastic energy of the deformable body in slot i (report's loop body).
+  EnergyReport body_energy(size_t i);
 
   void rebuild_body_view();
   void build_collision_filter();
@@ -118,6 +131,10 @@ class World {
   EnergyReport accumulated_work_;
   double time_ = 0.0;
   long step_count_ = 0;
+  // Threads (set_executor): per-slot scratch so bodies integrate side by side.
+  TaskExecutor* executor_ = nullptr;
+  std::vector<std::vector<Vec3>> slot_external_forces_;
+  std::vector<IntegrationResult> slot_results_;
 };
 
 }  // namespace pliant

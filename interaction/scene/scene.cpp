@@ -6,6 +6,7 @@
 #include "interaction/json_reader.h"
 #include "interaction/scene/mesh_spec.h"
 #include "interaction/script_pose_source.h"
+#include "interaction/tbb_task_executor.h"
 
 namespace pliant {
 namespace {
@@ -231,7 +232,7 @@ ContactMethod contact_method_from_string(const std::string& name) {
 Scene parse_scene(const nlohmann::json& root_json, const std::string& source, const std::string& base_dir) {
   const JsonReader root(root_json, source);
   root.expect_keys({"name", "description", "time_step", "duration", "gravity", "bodies", "instruments", "script",
-                    "loop", "contact", "collision", "camera", "output", "sleep", "haptics"});
+                    "loop", "contact", "collision", "camera", "output", "sleep", "haptics", "threads"});
   Scene scene;
   scene.file = source;
   scene.name = root.string_or("name", std::filesystem::path(source).stem().string());
@@ -241,6 +242,10 @@ Scene parse_scene(const nlohmann::json& root_json, const std::string& source, co
   if (auto c = root.find("contact")) scene.world.contact = read_contact(*c);
   scene.world.sleep.enabled = kSceneSleepByDefault;
   if (auto s = root.find("sleep")) scene.world.sleep = read_sleep(*s);
+  if (auto t = root.find("threads")) {
+    scene.threads = t->integer();
+    if (scene.threads < 1) t->fail(InputErrorKind::bad_value, "expected a whole number of threads >= 1");
+  }
 
   const JsonReader bodies = root.at("bodies");
   std::set<std::string> names;
@@ -303,8 +308,10 @@ Scene load_scene(const std::string& path) {
 
 SceneInstance instantiate_scene(const Scene& scene) {
   SceneInstance instance;
+  instance.executor = make_task_executor(scene.threads);
   instance.world = std::make_unique<World>(scene.world);
   World& world = *instance.world;
+  world.set_executor(instance.executor.get());
   for (const auto& def : scene.bodies) instance.bodies.push_back(world.add_body(def));
   for (const auto& spec : scene.instruments) instance.instruments.push_back(Instrument::create(world, spec));
 

@@ -14,6 +14,7 @@
 #include "interaction/instrument.h"
 #include "interaction/pose_source.h"
 #include "interaction/tool_script.h"
+#include "sim/parallel/task_executor.h"
 #include "sim/world.h"
 
 namespace pliant {
@@ -50,6 +51,7 @@ struct Scene {
   HapticSettings haptics;      ///< "haptics": limits of the force sent at 1 kHz (run --realtime)
   std::optional<SceneCamera> camera;
   SceneOutput output;
+  int threads = 1;             ///< "threads": threads the step runs on (1: the serial step; docs/threads.md)
 };
 
 /// Reads and validates a scene file. Throws InputError naming the file and JSON path.
@@ -60,6 +62,9 @@ Scene parse_scene(const nlohmann::json& root, const std::string& source, const s
 
 /// A scene built into a world: bodies, instruments and a pose source per instrument.
 struct SceneInstance {
+  /// The world's executor when the scene asks for more than one thread (null: one). Declared
+  /// before the world, so the world is destroyed first.
+  std::unique_ptr<TaskExecutor> executor;
   std::unique_ptr<World> world;
   std::vector<BodyId> bodies;             ///< in scene order
   std::vector<Instrument> instruments;    ///< in scene order
@@ -69,7 +74,7 @@ struct SceneInstance {
 /// "surface" / "penalty" / "none" -> ContactMethod (anything else: surface).
 ContactMethod contact_method_from_string(const std::string& name);
 
-/// Builds the world of a loaded scene.
+/// Builds the world of a loaded scene (with a oneTBB executor when scene.threads > 1).
 SceneInstance instantiate_scene(const Scene& scene);
 
 }  // namespace pliant

@@ -14,6 +14,7 @@
 #include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/model/stiffness_row_kernels.h"
+#include "sim/parallel/task_executor.h"
 
 namespace pliant {
 
@@ -266,6 +267,11 @@ Mat3 CorotationalFem::rotated_gradient(size_t t) const {
 
 void CorotationalFem::refresh_rotated_gradients() const {
   if (gradients_current_) return;
+  if (runs_parallel(executor_)) {
+    refresh_rotated_gradients_parallel();
+    gradients_current_ = true;
+    return;
+  }
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   for (size_t t = 0; t < nt; ++t) rotated_gradients_[t] = rotated_gradient(t);
   gradients_current_ = true;
@@ -274,7 +280,11 @@ void CorotationalFem::refresh_rotated_gradients() const {
 void CorotationalFem::assemble_stiffness() {
   refresh_rotated_gradients();
   const auto n = static_cast<size_t>(mesh_->vertex_count());
-  for (size_t i = 0; i < n; ++i) assemble_row(i, rotated_gradients_.data());
+  if (runs_parallel(executor_)) {
+    assemble_rows_parallel({}, rotated_gradients_.data());
+  } else {
+    for (size_t i = 0; i < n; ++i) assemble_row(i, rotated_gradients_.data());
+  }
   stiffness_assembled_ = true;
   step_blocks_valid_ = false;
   reassembled_rows_ = n;
@@ -297,7 +307,11 @@ void CorotationalFem::assemble_step_stiffness() {
     refresh_rotated_gradients();
     block_rotations_ = rotations_;
     block_gradients_ = rotated_gradients_;
-    for (size_t i = 0; i < n; ++i) assemble_row(i, block_gradients_.data());
+    if (runs_parallel(executor_)) {
+      assemble_rows_parallel({}, block_gradients_.data());
+    } else {
+      for (size_t i = 0; i < n; ++i) assemble_row(i, block_gradients_.data());
+    }
     stiffness_assembled_ = true;
     step_blocks_valid_ = true;
     reassembled_rows_ = n;
@@ -305,6 +319,32 @@ void CorotationalFem::assemble_step_stiffness() {
   }
   // Angle between unit quaternions: |q . p| = cos(angle / 2).
   const double min_cos = std::cos(0.5 * stiffness_rotation_tolerance_);
+  if (runs_parallel(executor_)) {
+    // Threads: each tet checked on its own, the rows marked serially, the marked rows summed in
+    // chunks (each row is the same function of block_gradients_ as below).
+    tet_moved_.resize(nt);
+    parallel_for_chunks(executor_, nt, 256, [&](size_t begin, size_t end) {
+      for (size_t t = begin; t < end; ++t) {
+        tet_moved_[t] = std::abs(block_rotations_[t].dot(rotations_[t])) < min_cos;
+        if (tet_moved_[t] == 0) continue;
+        block_rotations_[t] = rotations_[t];
+        block_gradients_[t] = rotated_gradient(t);
+      }
+    });
+    row_dirty_.assign(n, 0);
+    for (size_t t = 0; t < nt; ++t) {
+      if (tet_moved_[t] == 0) continue;
+      for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
+    }
+    dirty_rows_.clear();
+    for (size_t i = 0; i < n; ++i) {
+      if (row_dirty_[i] != 0) dirty_rows_.push_back(static_cast<int>(i));
+    }
+    if (!dirty_rows_.empty()) assemble_rows_parallel(dirty_rows_, block_gradients_.data());
+    reassembled_rows_ = dirty_rows_.size();
+    stiffness_assembled_ = true;
+    return;
+  }
   row_dirty_.assign(n, 0);
   for (size_t t = 0; t < nt; ++t) {
     if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
@@ -325,6 +365,7 @@ void CorotationalFem::assemble_step_stiffness() {
 double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector<Quat>& warm_starts,
                                       std::vector<Quat>& rotations, std::vector<Vec3>& forces,
                                       std::vector<double>& tet_energy) const {
+  if (runs_parallel(executor_)) return evaluate_pass_parallel(x, warm_starts, rotations, forces, tet_energy);
   std::fill(forces.begin(), forces.end(), Vec3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
@@ -701,6 +742,10 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
 
 void CorotationalFem::apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
                                            std::span<Vec3> yb) const {
+  if (runs_parallel(executor_)) {
+    apply_stiffness_pair_parallel(a, ya, b, yb);
+    return;
+  }
   std::fill(ya.begin(), ya.end(), Vec3::Zero());
   std::fill(yb.begin(), yb.end(), Vec3::Zero());
   const size_t n = ya.size();

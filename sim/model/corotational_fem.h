@@ -92,6 +92,8 @@ class CorotationalFem final : public DeformationModel {
   double elastic_energy(std::span<const Vec3> x) override;
   IntegrationResult advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) override;
   void set_accuracy(const ModelAccuracy& accuracy) override { accuracy_ = accuracy; }
+  /// Threads for the evaluation pass, the rotated gradients and the K' rows (corotational_parallel.cpp).
+  void set_executor(TaskExecutor* executor) override { executor_ = executor; }
   ModelAccuracy accuracy() const override { return accuracy_; }
 
   /// Updates element rotations at x, their rotated shape gradients (the K' of the next solve, and
@@ -305,6 +307,28 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> product_entry_;
   std::vector<Vec3> product_sum_;
   std::vector<double> vertex_gradient_bound_;  ///< per vertex: largest |grad N| over its tets (1/m)
+
+  // Threads (sim/model/corotational_parallel.cpp; session 9): used only when executor_ runs parallel.
+  TaskExecutor* executor_ = nullptr;
+  /// evaluate_pass on threads: per tet rotation, energy and element forces in chunks, then the
+  /// forces gathered per vertex in ascending tet order and the energy summed in tet order (the
+  /// serial pass's operations in its order: the same bits).
+  double evaluate_pass_parallel(std::span<const Vec3> x, const std::vector<Quat>& warm_starts,
+                                std::vector<Quat>& rotations, std::vector<Vec3>& forces,
+                                std::vector<double>& tet_energy) const;
+  /// assemble_row(i, gradients) for every i in `rows` (all rows when empty), on threads.
+  void assemble_rows_parallel(std::span<const int> rows, const Mat3* gradients);
+  /// rotated_gradients_[t] = rotated_gradient(t) for every tet, on threads.
+  void refresh_rotated_gradients_parallel() const;
+  /// apply_stiffness_pair on threads: each row gathers its transposed blocks K'_ji^T p_j (j < i,
+  /// ascending j: the order the serial product scatters them in) before its own row, the same bits.
+  void apply_stiffness_pair_parallel(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
+                                     std::span<Vec3> yb) const;
+  /// The transposed upper blocks by column: for row i, the blocks (j, i) with j < i, ascending j.
+  mutable std::vector<int> lower_offsets_, lower_rows_, lower_blocks_;
+  mutable std::vector<Mat3> tet_force_scratch_;  ///< per tet: -V P Dm^-T of the parallel pass (N)
+  std::vector<int> dirty_rows_;                  ///< rows the reuse step sums again (parallel path)
+  std::vector<char> tet_moved_;                  ///< per tet: its rotation left the reuse tolerance
 };
 
 }  // namespace pliant

@@ -13,6 +13,8 @@
 
 namespace pliant {
 
+class TaskExecutor;
+
 /// Which deformation model a body uses.
 enum class ModelKind {
   corotational_fem,   ///< Mueller & Gross 2004, implicit Euler + CG (default)
@@ -118,6 +120,10 @@ class DeformationModel {
 
   virtual void set_accuracy(const ModelAccuracy& accuracy) = 0;
   virtual ModelAccuracy accuracy() const = 0;
+
+  /// Runs the model's per-element loops through `executor` (not owned; null: one thread). A model
+  /// must give the same bits for every thread count; the default ignores it (one thread).
+  virtual void set_executor(TaskExecutor* executor) { (void)executor; }
 };
 
 /// Creates a model for a mesh and material. Throws InputError for settings it cannot use.
