@@ -331,13 +331,34 @@ void ContactSurfaceResponse::gather_contacts(std::span<Body* const> bodies, std:
 
 void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double dt, double fraction,
                                          bool record_directions) {
+  // Last step's entries back to zero (session 9): only the vertices its held contacts wrote (the
+  // colliding vertex and its contact triangle; the release writes the same ones), not every
+  // vertex of every body each step (17% of the probe's respond stage). A slot whose body changed
+  // or that was never filled is cleared whole.
   held_.resize(bodies.size());
+  auto kept = [&](size_t i) {  // slot i still holds body i's arrays (cleared entry by entry)
+    const HeldForces& h = held_[i];
+    return bodies[i] != nullptr && h.body == bodies[i] &&
+           h.force.size() == static_cast<size_t>(bodies[i]->vertex_count()) && h.contact.size() == h.force.size();
+  };
+  for (const VertexContact& c : held_contacts_) {
+    const auto m = static_cast<size_t>(c.body), n = static_cast<size_t>(c.penetrated_body);
+    if (m < bodies.size() && kept(m)) {
+      held_[m].force[static_cast<size_t>(c.vertex)] = Vec3::Zero();
+      held_[m].contact[static_cast<size_t>(c.vertex)] = -1;
+    }
+    if (n < bodies.size() && kept(n)) {
+      const auto& tri = bodies[n]->mesh->surface_triangles()[static_cast<size_t>(c.contact_triangle)];
+      for (int k = 0; k < 3; ++k) held_[n].force[static_cast<size_t>(tri[static_cast<size_t>(k)])] = Vec3::Zero();
+    }
+  }
   for (size_t i = 0; i < bodies.size(); ++i) {
     HeldForces& h = held_[i];
+    const bool same_body = kept(i);
     h.body = bodies[i];
     h.pending = false;
     h.taken = false;
-    if (bodies[i] == nullptr) continue;
+    if (bodies[i] == nullptr || same_body) continue;
     const auto n = static_cast<size_t>(bodies[i]->vertex_count());
     h.force.assign(n, Vec3::Zero());
     h.contact.assign(n, -1);

@@ -85,6 +85,17 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
   state_x_.assign(n, Vec3::Zero());
   changed_vertices_.reserve(n / kIncrementalFraction + 1);
 
+  // The corners of the tets around each vertex, ascending by tet (the mesh's vertex_tets order):
+  // the assembly's rows and the local queries' per-vertex sums (session 9: for any product).
+  corner_offsets_.assign(n + 1, 0);
+  corners_.reserve(nt * 4);
+  for (size_t v = 0; v < n; ++v) {
+    for (int t : mesh_->vertex_tets(static_cast<int>(v))) {
+      corners_.push_back({t, local_index(mesh_->tets()[static_cast<size_t>(t)], static_cast<int>(v))});
+    }
+    corner_offsets_[v + 1] = static_cast<int>(corners_.size());
+  }
+
   if (product_ == StiffnessProduct::assembled) {
     // CSR of 3x3 blocks, upper triangle (session 3): row i holds K_ii first, then K_ij for its edge
     // neighbours j > i, ascending; K_ji = K_ij^T is applied from row i. Half the blocks of full
@@ -102,15 +113,6 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       block_cols_.insert(block_cols_.end(), row.begin(), row.end());
     }
     blocks_.assign(block_cols_.size(), Mat3::Zero());
-    // The corners of the tets around each vertex, ascending by tet (the mesh's vertex_tets order).
-    corner_offsets_.assign(n + 1, 0);
-    corners_.reserve(nt * 4);
-    for (size_t v = 0; v < n; ++v) {
-      for (int t : mesh_->vertex_tets(static_cast<int>(v))) {
-        corners_.push_back({t, local_index(mesh_->tets()[static_cast<size_t>(t)], static_cast<int>(v))});
-      }
-      corner_offsets_[v + 1] = static_cast<int>(corners_.size());
-    }
     tet_blocks_.resize(nt);
     for (size_t t = 0; t < nt; ++t) {
       const auto& tet = mesh_->tets()[t];

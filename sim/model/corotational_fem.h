@@ -249,7 +249,7 @@ class CorotationalFem final : public DeformationModel {
     int tet;
     int local;
   };
-  std::vector<TetCorner> corners_;   ///< by vertex, ascending tet (row-by-row assembly)
+  std::vector<TetCorner> corners_;   ///< by vertex, ascending tet (row-by-row assembly, local queries)
   std::vector<int> corner_offsets_;  ///< corners_ of vertex v: [corner_offsets_[v], corner_offsets_[v + 1])
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
@@ -300,6 +300,7 @@ class CorotationalFem final : public DeformationModel {
   /// f at `vertices` from the current query's slots: -V P g_j summed over each vertex's tets.
   void sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const;
   std::vector<int> query_pending_;      ///< tets of the current query waiting for an exact extraction
+  std::vector<Vec3> corner_gradients_;  ///< per corner (corners_): rest shape gradient g_j (1/m), constant
   std::vector<Mat3> nearby_rotation_;   ///< per tet: last exactly extracted rotation
   std::vector<Mat3> nearby_key_;        ///< per tet: the F it was extracted from
   std::vector<char> nearby_cached_;     ///< per tet: 1 when filled

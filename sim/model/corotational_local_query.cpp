@@ -75,6 +75,14 @@ void CorotationalFem::begin_local_query() {
     query_mark_.assign(nt, 0u);
     query_slot_.assign(nt, -1);
     query_generation_ = 0;
+    // Constant per corner (session 9): g_j as shape_gradient gives it, computed once, not per sum.
+    corner_gradients_.resize(corners_.size());
+    for (size_t c = 0; c < corners_.size(); ++c) {
+      corner_gradients_[c] = shape_gradient(rest_shape_inverse_[static_cast<size_t>(corners_[c].tet)], corners_[c].local);
+    }
+    nearby_cached_.assign(nt, 0);  // sized here so remember_rotation only stores
+    nearby_rotation_.resize(nt);
+    nearby_key_.resize(nt);
   }
   if (++query_generation_ == 0) {  // wrapped: clear the marks
     std::fill(query_mark_.begin(), query_mark_.end(), 0u);
@@ -113,15 +121,15 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
 
 void CorotationalFem::sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const {
   for (size_t k = 0; k < vertices.size(); ++k) {
-    const int v = vertices[k];
+    const auto v = static_cast<size_t>(vertices[k]);
     Vec3 sum = Vec3::Zero();
-    for (int t : mesh_->vertex_tets(v)) {
-      const auto ts = static_cast<size_t>(t);
+    const auto last = static_cast<size_t>(corner_offsets_[v + 1]);
+    for (auto c = static_cast<size_t>(corner_offsets_[v]); c < last; ++c) {  // the vertex's tets, ascending
+      const auto ts = static_cast<size_t>(corners_[c].tet);
       const auto slot = static_cast<size_t>(query_slot_[ts]);
       // -V P g_j per vertex-tet pair: the per-vertex query's expression, bit for bit (the held-force
       // floor test's jitter measure moved from 2.0 to 2.17 mm/s with the force-matrix form's round-off).
-      const Vec3 g = shape_gradient(rest_shape_inverse_[ts], local_index(mesh_->tets()[ts], v));
-      sum -= volume_[ts] * (query_forces_[slot] * g);
+      sum -= volume_[ts] * (query_forces_[slot] * corner_gradients_[c]);
     }
     f[k] = sum;
   }
@@ -170,13 +178,7 @@ Mat3 CorotationalFem::warped_stiffness_stress(const Mat3& F, const Mat3& R) cons
 }
 
 void CorotationalFem::remember_rotation(size_t t, const Mat3& F, const Mat3& R) {
-  const auto nt = static_cast<size_t>(mesh_->tet_count());
-  if (nearby_cached_.size() != nt) {
-    nearby_cached_.assign(nt, 0);
-    nearby_rotation_.resize(nt);
-    nearby_key_.resize(nt);
-  }
-  nearby_rotation_[t] = R;
+  nearby_rotation_[t] = R;  // sized by begin_local_query
   nearby_key_[t] = F;
   nearby_cached_[t] = 1;
 }
@@ -196,7 +198,7 @@ void CorotationalFem::internal_forces_at_nearby_rotations(std::span<const Vec3> 
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
       const Mat3 F = deformation_gradient(x, t);
-      const bool nearby = ts < nearby_cached_.size() && nearby_cached_[ts] != 0 &&
+      const bool nearby = nearby_cached_[ts] != 0 &&
                           (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
       // Within the tolerance: the frozen query's stress with the remembered rotation. Else F waits
       // for the batched extraction (a tet's remembered rotation is looked up before any of this
