@@ -144,7 +144,7 @@ BodyDef read_body(const JsonReader& j, const std::string& base_dir, size_t index
 ContactSettings read_contact(const JsonReader& j) {
   j.expect_keys({"method", "binary_search_iterations", "finishing_projection", "penalty_stiffness",
                  "penalty_damping", "friction", "held_force_fraction", "implicit_correction",
-                 "linearised_search", "limit_friction_move"});
+                 "linearised_search", "limit_friction_move", "deformable_pair_held_force_fraction"});
   ContactSettings c;
   if (auto m = j.find("method")) c.method = contact_method_from_string(m->choice({"surface", "penalty", "none"}));
   if (auto it = j.find("binary_search_iterations")) {
@@ -171,12 +171,15 @@ ContactSettings read_contact(const JsonReader& j) {
       c.implicit_correction = it->boolean() ? ImplicitCorrection::all : ImplicitCorrection::off;
     }
   }
-  if (auto it = j.find("held_force_fraction")) {
-    c.held_force_fraction = it->number();
-    if (c.held_force_fraction < 0.0 || c.held_force_fraction > 1.0) {
-      it->fail(InputErrorKind::bad_value, "expected a number in [0, 1]");
+  // Held-force fractions: numbers in [0, 1].
+  auto read_fraction = [&](const char* key, double& value) {
+    if (auto it = j.find(key)) {
+      value = it->number();
+      if (value < 0.0 || value > 1.0) it->fail(InputErrorKind::bad_value, "expected a number in [0, 1]");
     }
-  }
+  };
+  read_fraction("held_force_fraction", c.held_force_fraction);
+  read_fraction("deformable_pair_held_force_fraction", c.deformable_pair_held_force_fraction);
   return c;
 }
 

@@ -330,7 +330,15 @@ void ContactSurfaceResponse::gather_contacts(std::span<Body* const> bodies, std:
 }
 
 void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double dt, double fraction,
-                                         bool record_directions) {
+                                         double deformable_pair_fraction, bool record_directions) {
+  // Session 9 (docs/contact-surface.md "Resting churn, session 9"): between two movable deformable
+  // bodies the one-step-late held force drives their contact mode (the resting churn); against an
+  // immovable partner (kinematic, sleeping) the whole reaction stays held.
+  const double pair_fraction = std::min(fraction, deformable_pair_fraction);
+  auto movable = [&](int body) {
+    const Body& b = *bodies[static_cast<size_t>(body)];
+    return !b.is_kinematic() && !b.is_sleeping();
+  };
   // Last step's entries back to zero (session 9): only the vertices its held contacts wrote (the
   // colliding vertex and its contact triangle; the release writes the same ones), not every
   // vertex of every body each step (17% of the probe's respond stage). A slot whose body changed
@@ -376,7 +384,8 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
     const VertexContact& contact = all_contacts_[c];
     // Hold at most the elastic force with which the dent pushes back (the sustained part of the
     // contact force), not the inertial part of an impact: holding that overshoots.
-    double magnitude = fraction * impulses_[c].normal_magnitude / dt;
+    const double held_fraction = movable(contact.body) && movable(contact.penetrated_body) ? pair_fraction : fraction;
+    double magnitude = held_fraction * impulses_[c].normal_magnitude / dt;
     if (c < lingering_begin_) {
       const Vec3 normal = impulses_[c].normal / impulses_[c].normal_magnitude;
       const auto& vertices = region_.vertices();
@@ -583,7 +592,8 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
                                           [](const ContactImpulse& i) { return i.friction.squaredNorm() > 0.0; });
   if (settings.finishing_projection && friction_moved) finishing_projection(bodies, contacts, region_, 32);
   if (warm_start) {
-    hold_forces(bodies, dt, settings.held_force_fraction, settings.held_force_release);
+    hold_forces(bodies, dt, settings.held_force_fraction, settings.deformable_pair_held_force_fraction,
+                settings.held_force_release);
     if (settings.held_force_release) release_separating_pairs(bodies, dt);
   } else {
     held_.clear();

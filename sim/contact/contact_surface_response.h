@@ -60,9 +60,11 @@ class ContactSurfaceResponse final : public ContactResponse {
   /// normal impulse (N s) each one's held force applied in this step.
   void gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
                        bool warm_start);
-  /// Stores `fraction` of this step's normal contact forces for the next integration; with
+  /// Stores `fraction` of this step's normal contact forces for the next integration, and
+  /// min(fraction, `deformable_pair_fraction`) of those between two movable deformable bodies; with
   /// `record_directions` (the release needs them) also each held force's unit direction.
-  void hold_forces(std::span<Body* const> bodies, double dt, double fraction, bool record_directions);
+  void hold_forces(std::span<Body* const> bodies, double dt, double fraction, double deformable_pair_fraction,
+                   bool record_directions);
   /// ContactSettings::held_force_release: per body pair whose centres of mass separate along its
   /// held force, scales that pair's held forces down by the impulse the separation carries.
   void release_separating_pairs(std::span<Body* const> bodies, double dt);

@@ -1,6 +1,6 @@
 // The scene's "contact" object reads held_force_fraction (docs/scene-format.md): a value in [0, 1]
 // reaches the World's ContactSettings; outside, or of the wrong type, the error names its path.
-// Likewise the boolean limit_friction_move.
+// Likewise deformable_pair_held_force_fraction (session 9), and the boolean limit_friction_move.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -17,24 +17,30 @@ nlohmann::json probe_coarse_json() {
   return nlohmann::json::parse(in);
 }
 
-TEST(SceneFormat, ContactHeldForceFractionReachesTheWorld) {
+// A held-force fraction key: `value` (not the default) reaches the scene and the World; 1.5, -0.1
+// and a string are errors naming /contact/<key>.
+void expect_fraction_key(const char* key, double value, double ContactSettings::*member) {
   nlohmann::json j = probe_coarse_json();
-  // Library default: full strength (the contact's whole reaction is held); a scene may turn it off (0:
-  // the paper's method, for comparison), so the test sets the value that differs from the default.
-  EXPECT_EQ(parse_scene(j, "probe_coarse.json", ".").world.contact.held_force_fraction, 1.0);
-  j["contact"]["held_force_fraction"] = 0.0;
+  j["contact"][key] = value;
   const Scene scene = parse_scene(j, "probe_coarse.json", ".");
-  EXPECT_EQ(scene.world.contact.held_force_fraction, 0.0);
-  EXPECT_EQ(instantiate_scene(scene).world->settings().contact.held_force_fraction, 0.0);
+  EXPECT_EQ(scene.world.contact.*member, value) << key;
+  EXPECT_EQ(instantiate_scene(scene).world->settings().contact.*member, value) << key;
   for (const nlohmann::json& bad : {nlohmann::json(1.5), nlohmann::json(-0.1), nlohmann::json("all")}) {
-    j["contact"]["held_force_fraction"] = bad;
+    j["contact"][key] = bad;
     try {
       parse_scene(j, "probe_coarse.json", ".");
       ADD_FAILURE() << "no error for " << bad;
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("/contact/held_force_fraction"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(std::string("/contact/") + key), std::string::npos) << e.what();
     }
   }
+}
+
+TEST(SceneFormat, ContactHeldForceFractionReachesTheWorld) {
+  // Library default: full strength (the contact's whole reaction is held); a scene may turn it off (0:
+  // the paper's method, for comparison), so the test sets the value that differs from the default.
+  EXPECT_EQ(parse_scene(probe_coarse_json(), "probe_coarse.json", ".").world.contact.held_force_fraction, 1.0);
+  expect_fraction_key("held_force_fraction", 0.0, &ContactSettings::held_force_fraction);
 }
 
 // contact.limit_friction_move (docs/stability.md M6a): off by default, a scene may turn it on; a
@@ -53,6 +59,14 @@ TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("/contact/limit_friction_move"), std::string::npos) << e.what();
   }
+}
+
+// contact.deformable_pair_held_force_fraction (docs/contact-surface.md "Resting churn, session 9"):
+// 1 by default (held_force_fraction everywhere), opt-in values in [0, 1].
+TEST(SceneFormat, ContactDeformablePairHeldForceFractionReachesTheWorld) {
+  EXPECT_EQ(parse_scene(probe_coarse_json(), "probe_coarse.json", ".").world.contact.deformable_pair_held_force_fraction,
+            1.0);
+  expect_fraction_key("deformable_pair_held_force_fraction", 0.8, &ContactSettings::deformable_pair_held_force_fraction);
 }
 
 }  // namespace

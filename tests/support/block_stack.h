@@ -57,13 +57,18 @@ struct ChurnRun {
   double rest_floor = 0.0;            ///< (1/2) M (g dt)^2 over the free mass M (J)
   double stored_speed_max = 0.0;      ///< largest stored vertex speed over the same steps (m/s)
   double positional_speed_max = 0.0;  ///< largest |x_{n+1} - x_n| / dt over the same steps (m/s)
+  /// Time (s) from which the kinetic energy stays below the rest floor to the end of the run; the
+  /// run's duration if it ends above it.
+  double rest_time = 0.0;
 };
 
 /// `blocks` stacked blocks (add_block_stack) for 0.7 s of steps dt, held forces 1, finishing
 /// projection on, friction iff mu > 0; `adjust` changes the contact settings after those; the top
-/// block starts `shift_m` further along x (the late KE at 1 ms is chaotic in it).
+/// block starts `shift_m` further along x (the late KE at 1 ms is chaotic in it); `adjust_bodies`
+/// changes the blocks (their models' settings) after they are added.
 inline ChurnRun run_block_stack(int blocks, double mu, double dt, bool fixed_base = false,
-                                const std::function<void(ContactSettings&)>& adjust = {}, double shift_m = 0.0) {
+                                const std::function<void(ContactSettings&)>& adjust = {}, double shift_m = 0.0,
+                                const std::function<void(World&, const std::vector<BodyId>&)>& adjust_bodies = {}) {
   constexpr double kG = 9.81;  // m/s^2, WorldSettings' default gravity
   World world;
   world.settings().contact.held_force_fraction = 1.0;
@@ -72,6 +77,7 @@ inline ChurnRun run_block_stack(int blocks, double mu, double dt, bool fixed_bas
   if (adjust) adjust(world.settings().contact);
   const std::vector<BodyId> ids = add_block_stack(world, blocks, mu, fixed_base);
   for (auto& x : world.body(ids.back()).positions) x.x() += shift_m;
+  if (adjust_bodies) adjust_bodies(world, ids);
   double mass = 0.0;
   for (BodyId id : ids) mass += world.body(id).total_mass();
 
@@ -83,6 +89,7 @@ inline ChurnRun run_block_stack(int blocks, double mu, double dt, bool fixed_bas
     for (size_t k = 0; k < ids.size(); ++k) previous[k] = world.body(ids[k]).positions;
     const StepReport& r = world.step(dt);
     EXPECT_EQ(r.fault, StepFault::none) << i;
+    if (!(r.energy.kinetic < out.rest_floor)) out.rest_time = i * dt;
     if (i <= steps * 5 / 7) continue;
     out.kinetic_late_max = std::max(out.kinetic_late_max, r.energy.kinetic);
     for (size_t k = 0; k < ids.size(); ++k) {
