@@ -57,9 +57,11 @@ class ContactSurfaceResponse final : public ContactResponse {
   };
   /// all_contacts_: this step's contacts, then the held contacts detection did not find again
   /// (lingering: their held force acted, so the velocity update may take it back); and the
-  /// normal impulse (N s) each one's held force applied in this step.
+  /// normal impulse (N s) each one's held force applied in this step. With `release_distant`
+  /// (ContactSettings::release_distant_held_contacts) a lingering contact whose vertex is more than
+  /// a cell from the point it is held against is dropped instead.
   void gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
-                       bool warm_start);
+                       bool warm_start, bool release_distant);
   /// Stores `fraction` of this step's normal contact forces for the next integration, and
   /// min(fraction, `deformable_pair_fraction`) of those between two movable deformable bodies; with
   /// `record_directions` (the release needs them) also each held force's unit direction.

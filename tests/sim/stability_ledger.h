@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "sim/contact/contact_surface_response.h"
@@ -35,9 +36,15 @@ struct StageLedger {
   std::array<std::vector<Vec3>, 2> final_positions;  ///< m, each body's vertices after the run
 };
 
+/// One step's energy change per stage and body (J), index 0 the lower block, 1 the upper.
+using StepStages = std::array<StageSums, 2>;
+/// Called after each step with the step index, the world, the response (its held contacts are
+/// those it will hold into the next step) and the step's per-stage energy changes.
+using StepObserver = std::function<void(int, const World&, const ContactSurfaceResponse&, const StepStages&)>;
+
 /// Runs case `c` (Partner::block) with the contact-surface response applied by hand and books each
-/// stage's energy change per body.
-inline StageLedger take_stage_ledger(const Case& c) {
+/// stage's energy change per body; `after_step` (optional) sees every step.
+inline StageLedger take_stage_ledger(const Case& c, const StepObserver& after_step = {}) {
   WorldSettings ws = world_settings(c);
   const ContactSettings contact = ws.contact;
   ws.contact.method = ContactMethod::none;  // the ledger applies the response itself
@@ -79,13 +86,16 @@ inline StageLedger take_stage_ledger(const Case& c) {
       response.respond(world.bodies(), world.contacts(), c.dt, contact, report);
     }
     double total = 0.0;
+    StepStages stages;
     for (size_t k = 0; k < 2; ++k) {
       const double end = energy(k);
-      out.body[k].integrate += integrated[k] - before[k];
-      out.body[k].search += after_search[k] - integrated[k];
-      out.body[k].velocity += end - after_search[k];
+      stages[k] = {integrated[k] - before[k], after_search[k] - integrated[k], end - after_search[k]};
+      out.body[k].integrate += stages[k].integrate;
+      out.body[k].search += stages[k].search;
+      out.body[k].velocity += stages[k].velocity;
       total += end;
     }
+    if (after_step) after_step(i, world, response, stages);
     out.max_total = std::max(out.max_total, total);
     out.final_total = total;
   }

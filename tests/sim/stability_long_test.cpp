@@ -3,7 +3,9 @@
 // up to 2 m/s, initial overlap up to 90% of the upper body's thickness, a sliver tet, 1 mg and
 // 1000 kg bodies, for both contact methods. Each case checks finiteness, energy against the work
 // put in, and bounded residual overlap (tests/sim/stability_harness.h; results in docs/stability.md).
+#include <cstdio>
 #include <cstdlib>
+#include <sstream>
 #include <string>
 
 #include "sim/stability_harness.h"
@@ -114,6 +116,37 @@ std::vector<Case> full_matrix() {
       c.contact_tweak = [tweak = c.contact_tweak, scope](ContactSettings& s) {
         if (tweak) tweak(s);
         s.implicit_correction = scope;
+      };
+    }
+  }
+  // Opt-in settings for measuring them on the whole matrix (session 9, docs/stability.md M7, M10):
+  // PLIANT_STABILITY_OPT_IN, a comma-separated list of anchored (ContactSettings::
+  // anchored_friction_compliance), limit (limit_friction_move), release
+  // (release_distant_held_contacts), frictionless (friction off), on the contact-surface cases.
+  if (const char* env = std::getenv("PLIANT_STABILITY_OPT_IN"); env != nullptr) {
+    bool anchored = false, limit = false, release = false, frictionless = false;
+    std::stringstream list(env);
+    for (std::string name; std::getline(list, name, ',');) {
+      bool* flag = name == "anchored" ? &anchored
+                   : name == "limit"  ? &limit
+                   : name == "release" ? &release
+                   : name == "frictionless" ? &frictionless
+                                            : nullptr;
+      if (flag == nullptr) {
+        std::fprintf(stderr, "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, release, frictionless)\n",
+                     name.c_str());
+        std::exit(2);
+      }
+      *flag = true;
+    }
+    for (Case& c : cases) {
+      if (c.method != ContactMethod::contact_surface) continue;
+      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, release, frictionless](ContactSettings& s) {
+        if (tweak) tweak(s);
+        s.anchored_friction_compliance = s.anchored_friction_compliance || anchored;
+        s.limit_friction_move = s.limit_friction_move || limit;
+        s.release_distant_held_contacts = s.release_distant_held_contacts || release;
+        s.friction = s.friction && !frictionless;
       };
     }
   }
