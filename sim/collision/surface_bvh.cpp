@@ -1,5 +1,7 @@
 #include "sim/collision/surface_bvh.h"
 
+#include "sim/collision/segment_packet.h"
+
 #include <algorithm>
 #include <bit>
 #include <cassert>
@@ -295,116 +297,165 @@ void SurfaceBvh::first_segment_hits(const Vec3& end, int exclude_end, std::span<
   const int total = static_cast<int>(origins.size());
   for (int begin = 0; begin < total; begin += kFanChunk) {
     const int m = std::min(kFanChunk, total - begin);
-    // Segment boxes as separate coordinate arrays, so a triangle box is tested against all of them
-    // without branches (the outcome is hard to predict).
-    // Padded to an even count with empty boxes (min +inf, max -inf: they meet nothing), so the mask
-    // is built two segments at a time.
-    alignas(16) double seg_min[3][kFanChunk], seg_max[3][kFanChunk];
-    Vec3 dir[kFanChunk];
-    double best_t[kFanChunk], dir_squared[kFanChunk];
-    int best_tri[kFanChunk];
-    Vec3 best_bary[kFanChunk];
     Aabb fan;
     fan.extend(end);
-    for (int i = 0; i < m; ++i) {
-      const Vec3& o = origins[static_cast<size_t>(begin + i)];
-      fan.extend(o);
-      for (int k = 0; k < 3; ++k) {
-        seg_min[k][i] = std::min(o[k], end[k]);
-        seg_max[k][i] = std::max(o[k], end[k]);
-      }
-      dir[i] = end - o;
-      dir_squared[i] = dir[i].squaredNorm();
-      best_t[i] = 1.0;
-      best_tri[i] = -1;
-      best_bary[i] = Vec3::Zero();
-    }
+    for (int i = 0; i < m; ++i) fan.extend(origins[static_cast<size_t>(begin + i)]);
     // Self-collision only: some segment skips the triangles holding its ends.
     bool any_exclude = exclude_end >= 0;
     for (int i = 0; i < m; ++i) any_exclude = any_exclude || exclude_origins[static_cast<size_t>(begin + i)] >= 0;
-    const int padded = (m + 1) & ~1;
-    for (int i = m; i < padded; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        seg_min[k][i] = std::numeric_limits<double>::infinity();
-        seg_max[k][i] = -std::numeric_limits<double>::infinity();
-      }
-    }
     // Node boxes are inflated by slack_ (lazy refit): inflate the fan's box instead.
     Aabb node_query = fan;
     if (slack_ > 0.0) {
       node_query.min.array() -= slack_;
       node_query.max.array() += slack_;
     }
-    // Every node and triangle whose box meets the fan's box; a triangle is tested against each
-    // segment whose own box it meets. The smallest (t, triangle) per segment is kept, as the
-    // nearest-first traversal of first_ray_hit keeps it, so the order of visits does not matter.
-    int stack[kMaxStack];
-    int top = 0;
-    if (!nodes_.empty()) stack[top++] = 0;
-    while (top > 0) {
-      const int n = stack[--top];
-      const Node& node = nodes_[static_cast<size_t>(n)];
-      if (!boxes_meet(node.box, node_query)) continue;
-      if (node.count == 0) {
-        stack[top++] = node.first;
-        stack[top++] = n + 1;
-        continue;
-      }
-      ensure_leaf(n);
-      for (int j = node.first; j < node.first + node.count; ++j) {
-        const Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
-        if (!boxes_meet(box, fan)) continue;
-        // Bit i: the triangle's box meets segment i's box (the same six closed comparisons per
-        // segment, two segments per SSE2 compare; padding segments never meet).
-        unsigned mask = 0;
+    const auto chunk = static_cast<size_t>(begin);
+    if (segment_packets_ && !any_exclude && segment_packets_available()) {
+      fan_chunk_packet(end, node_query, origins.subspan(chunk, static_cast<size_t>(m)),
+                       hits.subspan(chunk, static_cast<size_t>(m)), found.subspan(chunk, static_cast<size_t>(m)));
+    } else {
+      fan_chunk_scalar(end, exclude_end, fan, node_query, any_exclude, origins.subspan(chunk, static_cast<size_t>(m)),
+                       exclude_origins.subspan(chunk, static_cast<size_t>(m)),
+                       hits.subspan(chunk, static_cast<size_t>(m)), found.subspan(chunk, static_cast<size_t>(m)));
+    }
+  }
+}
+
+template <class Leaf>
+void SurfaceBvh::visit_leaves_meeting(const Aabb& query, Leaf&& leaf) const {
+  int stack[kMaxStack];
+  int top = 0;
+  if (!nodes_.empty()) stack[top++] = 0;
+  while (top > 0) {
+    const int n = stack[--top];
+    const Node& node = nodes_[static_cast<size_t>(n)];
+    if (!boxes_meet(node.box, query)) continue;
+    if (node.count == 0) {
+      stack[top++] = node.first;
+      stack[top++] = n + 1;
+      continue;
+    }
+    ensure_leaf(n);
+    leaf(node);
+  }
+}
+
+void SurfaceBvh::fan_chunk_packet(const Vec3& end, const Aabb& node_query, std::span<const Vec3> origins,
+                                  std::span<SurfacePoint> hits, std::span<char> found) const {
+  const int m = static_cast<int>(origins.size());
+  SegmentPacket packet;
+  packet.load(end, origins.data(), m);
+  // Every triangle of every leaf whose box meets the fan's box, in the scalar loop's order; a
+  // triangle that meets no segment's box is rejected by its lanes' box masks.
+  visit_leaves_meeting(node_query, [&](const Node& node) {
+    const auto first = static_cast<size_t>(node.first);
+    segment_packet_leaf(packet, &prepared_[first], &triangle_boxes_[first], &order_[first], node.count);
+  });
+  for (int i = 0; i < m; ++i) {
+    const auto k = static_cast<size_t>(i);
+    const int t = static_cast<int>(packet.best_triangle[i]);
+    found[k] = t >= 0 ? 1 : 0;
+    if (t < 0) continue;
+    SurfacePoint& hit = hits[k];
+    const Vec3 w = clamped_barycentric(packet.best_u[i], packet.best_v[i]);
+    hit.triangle = t;
+    hit.barycentric = w;
+    hit.point = w[0] * corner(t, 0) + w[1] * corner(t, 1) + w[2] * corner(t, 2);
+    hit.t = packet.best_t[i];
+    hit.distance_squared = (hit.point - origins[k]).squaredNorm();
+  }
+}
+
+void SurfaceBvh::fan_chunk_scalar(const Vec3& end, int exclude_end, const Aabb& fan, const Aabb& node_query,
+                                  bool any_exclude, std::span<const Vec3> origins,
+                                  std::span<const int> exclude_origins, std::span<SurfacePoint> hits,
+                                  std::span<char> found) const {
+  const int m = static_cast<int>(origins.size());
+  // Segment boxes as separate coordinate arrays, so a triangle box is tested against all of them
+  // without branches (the outcome is hard to predict).
+  // Padded to an even count with empty boxes (min +inf, max -inf: they meet nothing), so the mask
+  // is built two segments at a time.
+  alignas(16) double seg_min[3][kFanChunk], seg_max[3][kFanChunk];
+  Vec3 dir[kFanChunk];
+  double best_t[kFanChunk], dir_squared[kFanChunk];
+  int best_tri[kFanChunk];
+  Vec3 best_bary[kFanChunk];
+  for (int i = 0; i < m; ++i) {
+    const Vec3& o = origins[static_cast<size_t>(i)];
+    for (int k = 0; k < 3; ++k) {
+      seg_min[k][i] = std::min(o[k], end[k]);
+      seg_max[k][i] = std::max(o[k], end[k]);
+    }
+    dir[i] = end - o;
+    dir_squared[i] = dir[i].squaredNorm();
+    best_t[i] = 1.0;
+    best_tri[i] = -1;
+    best_bary[i] = Vec3::Zero();
+  }
+  const int padded = (m + 1) & ~1;
+  for (int i = m; i < padded; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      seg_min[k][i] = std::numeric_limits<double>::infinity();
+      seg_max[k][i] = -std::numeric_limits<double>::infinity();
+    }
+  }
+  // Every node and triangle whose box meets the fan's box; a triangle is tested against each
+  // segment whose own box it meets. The smallest (t, triangle) per segment is kept, as the
+  // nearest-first traversal of first_ray_hit keeps it, so the order of visits does not matter.
+  visit_leaves_meeting(node_query, [&](const Node& node) {
+    for (int j = node.first; j < node.first + node.count; ++j) {
+      const Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
+      if (!boxes_meet(box, fan)) continue;
+      // Bit i: the triangle's box meets segment i's box (the same six closed comparisons per
+      // segment, two segments per SSE2 compare; padding segments never meet).
+      unsigned mask = 0;
 #if defined(__SSE2__)
-        const __m128d min_x = _mm_set1_pd(box.min[0]), min_y = _mm_set1_pd(box.min[1]), min_z = _mm_set1_pd(box.min[2]);
-        const __m128d max_x = _mm_set1_pd(box.max[0]), max_y = _mm_set1_pd(box.max[1]), max_z = _mm_set1_pd(box.max[2]);
-        for (int i = 0; i < padded; i += 2) {
-          __m128d meets = _mm_and_pd(_mm_cmple_pd(min_x, _mm_load_pd(&seg_max[0][i])),
-                                     _mm_cmple_pd(_mm_load_pd(&seg_min[0][i]), max_x));
-          meets = _mm_and_pd(meets, _mm_and_pd(_mm_cmple_pd(min_y, _mm_load_pd(&seg_max[1][i])),
-                                               _mm_cmple_pd(_mm_load_pd(&seg_min[1][i]), max_y)));
-          meets = _mm_and_pd(meets, _mm_and_pd(_mm_cmple_pd(min_z, _mm_load_pd(&seg_max[2][i])),
-                                               _mm_cmple_pd(_mm_load_pd(&seg_min[2][i]), max_z)));
-          mask |= static_cast<unsigned>(_mm_movemask_pd(meets)) << i;
-        }
+      const __m128d min_x = _mm_set1_pd(box.min[0]), min_y = _mm_set1_pd(box.min[1]), min_z = _mm_set1_pd(box.min[2]);
+      const __m128d max_x = _mm_set1_pd(box.max[0]), max_y = _mm_set1_pd(box.max[1]), max_z = _mm_set1_pd(box.max[2]);
+      for (int i = 0; i < padded; i += 2) {
+        __m128d meets = _mm_and_pd(_mm_cmple_pd(min_x, _mm_load_pd(&seg_max[0][i])),
+                                   _mm_cmple_pd(_mm_load_pd(&seg_min[0][i]), max_x));
+        meets = _mm_and_pd(meets, _mm_and_pd(_mm_cmple_pd(min_y, _mm_load_pd(&seg_max[1][i])),
+                                             _mm_cmple_pd(_mm_load_pd(&seg_min[1][i]), max_y)));
+        meets = _mm_and_pd(meets, _mm_and_pd(_mm_cmple_pd(min_z, _mm_load_pd(&seg_max[2][i])),
+                                             _mm_cmple_pd(_mm_load_pd(&seg_min[2][i]), max_z)));
+        mask |= static_cast<unsigned>(_mm_movemask_pd(meets)) << i;
+      }
 #else
-        for (int i = 0; i < padded; ++i) {
-          const bool meets = (box.min[0] <= seg_max[0][i]) & (seg_min[0][i] <= box.max[0]) &
-                             (box.min[1] <= seg_max[1][i]) & (seg_min[1][i] <= box.max[1]) &
-                             (box.min[2] <= seg_max[2][i]) & (seg_min[2][i] <= box.max[2]);
-          mask |= static_cast<unsigned>(meets) << i;
-        }
+      for (int i = 0; i < padded; ++i) {
+        const bool meets = (box.min[0] <= seg_max[0][i]) & (seg_min[0][i] <= box.max[0]) &
+                           (box.min[1] <= seg_max[1][i]) & (seg_min[1][i] <= box.max[1]) &
+                           (box.min[2] <= seg_max[2][i]) & (seg_min[2][i] <= box.max[2]);
+        mask |= static_cast<unsigned>(meets) << i;
+      }
 #endif
-        const int tri = order_[static_cast<size_t>(j)];
-        for (; mask != 0; mask &= mask - 1) {
-          const int i = std::countr_zero(mask);
-          if (any_exclude && excluded(tri, exclude_origins[static_cast<size_t>(begin + i)], exclude_end)) continue;
-          TriangleHit h;
-          if (ray_triangle_intersection(origins[static_cast<size_t>(begin + i)], dir[i], dir_squared[i],
-                                        prepared_[static_cast<size_t>(j)], 0.0, best_t[i], h)) {
-            if (best_tri[i] < 0 || h.t < best_t[i] || (h.t == best_t[i] && tri < best_tri[i])) {
-              best_t[i] = h.t;
-              best_tri[i] = tri;
-              best_bary[i] = h.barycentric;
-            }
+      const int tri = order_[static_cast<size_t>(j)];
+      for (; mask != 0; mask &= mask - 1) {
+        const int i = std::countr_zero(mask);
+        if (any_exclude && excluded(tri, exclude_origins[static_cast<size_t>(i)], exclude_end)) continue;
+        TriangleHit h;
+        if (ray_triangle_intersection(origins[static_cast<size_t>(i)], dir[i], dir_squared[i],
+                                      prepared_[static_cast<size_t>(j)], 0.0, best_t[i], h)) {
+          if (best_tri[i] < 0 || h.t < best_t[i] || (h.t == best_t[i] && tri < best_tri[i])) {
+            best_t[i] = h.t;
+            best_tri[i] = tri;
+            best_bary[i] = h.barycentric;
           }
         }
       }
     }
-    for (int i = 0; i < m; ++i) {
-      const auto k = static_cast<size_t>(begin + i);
-      found[k] = best_tri[i] >= 0 ? 1 : 0;
-      if (best_tri[i] < 0) continue;
-      SurfacePoint& hit = hits[k];
-      const int t = best_tri[i];
-      hit.triangle = t;
-      hit.barycentric = best_bary[i];
-      hit.point = best_bary[i][0] * corner(t, 0) + best_bary[i][1] * corner(t, 1) + best_bary[i][2] * corner(t, 2);
-      hit.t = best_t[i];
-      hit.distance_squared = (hit.point - origins[k]).squaredNorm();
-    }
+  });
+  for (int i = 0; i < m; ++i) {
+    const auto k = static_cast<size_t>(i);
+    found[k] = best_tri[i] >= 0 ? 1 : 0;
+    if (best_tri[i] < 0) continue;
+    SurfacePoint& hit = hits[k];
+    const int t = best_tri[i];
+    hit.triangle = t;
+    hit.barycentric = best_bary[i];
+    hit.point = best_bary[i][0] * corner(t, 0) + best_bary[i][1] * corner(t, 1) + best_bary[i][2] * corner(t, 2);
+    hit.t = best_t[i];
+    hit.distance_squared = (hit.point - origins[k]).squaredNorm();
   }
 }
 

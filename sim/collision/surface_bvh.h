@@ -88,6 +88,10 @@ class SurfaceBvh {
     return true;
   }
 
+  /// Fan queries by the AVX segment-packet kernel where the CPU has it (default; the same results
+  /// bit for bit, segment_packet.h) or always by the scalar loop (false; for tests and benchmarks).
+  void set_segment_packets(bool on) { segment_packets_ = on; }
+
   /// Closest point of the surface to p; false only if no triangle is eligible. Triangles containing
   /// vertex `exclude` (-1: none) are skipped.
   bool nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest) const;
@@ -122,6 +126,16 @@ class SurfaceBvh {
       leaf_epoch_[static_cast<size_t>(n)] = pose_epoch_;
     }
   }
+  /// Calls leaf(node) for every leaf whose box meets `query` (depth first), its data made current.
+  template <class Leaf>
+  void visit_leaves_meeting(const Aabb& query, Leaf&& leaf) const;
+  /// One chunk of first_segment_hits by the segment-packet kernel (no excluded vertices).
+  void fan_chunk_packet(const Vec3& end, const Aabb& node_query, std::span<const Vec3> origins,
+                        std::span<SurfacePoint> hits, std::span<char> found) const;
+  /// One chunk of first_segment_hits by the scalar loop (masks of segment boxes, Moller-Trumbore).
+  void fan_chunk_scalar(const Vec3& end, int exclude_end, const Aabb& fan, const Aabb& node_query, bool any_exclude,
+                        std::span<const Vec3> origins, std::span<const int> exclude_origins,
+                        std::span<SurfacePoint> hits, std::span<char> found) const;
   /// Node n's box as queries see it: inflated by slack_.
   Aabb query_box(int n) const;
   void remember_fitted_positions();
@@ -141,6 +155,7 @@ class SurfaceBvh {
   mutable std::vector<Aabb> triangle_boxes_;
   mutable std::vector<PreparedTriangle> prepared_;  ///< corner and edges (triangle_queries.h)
   mutable std::vector<std::uint64_t> leaf_epoch_;   ///< per node
+  bool segment_packets_ = true;                     ///< fan queries may use the AVX kernel
 };
 
 }  // namespace pliant

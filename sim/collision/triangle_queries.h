@@ -29,6 +29,15 @@ struct PreparedTriangle {
   }
 };
 
+/// The corner weights (1 - u - v, u, v) of a Moller-Trumbore hit, clamped to [0, 1] and summing to
+/// 1 (u, v may lie up to the test's slack outside the triangle).
+inline Vec3 clamped_barycentric(double u, double v) {
+  Vec3 w(1.0 - u - v, u, v);
+  w = w.cwiseMax(0.0);
+  w /= w.sum();
+  return w;
+}
+
 /// ray_triangle_intersection on a prepared triangle; dir_squared = |dir|^2. Bit for bit the same
 /// result (the same operations in the same order), without reloading the corners.
 inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, double dir_squared,
@@ -50,11 +59,8 @@ inline bool ray_triangle_intersection(const Vec3& origin, const Vec3& dir, doubl
   if (v < -kSlack || u + v > 1.0 + kSlack) return false;
   const double t = e2.dot(qvec) * inv;
   if (t < t_min || t > t_max) return false;
-  Vec3 w(1.0 - u - v, u, v);
-  w = w.cwiseMax(0.0);
-  w /= w.sum();
   hit.t = t;
-  hit.barycentric = w;
+  hit.barycentric = clamped_barycentric(u, v);
   return true;
 }
 
