@@ -12,6 +12,7 @@
 #include <algorithm>
 
 #include "sim/model/corotational_fem.h"
+#include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/parallel/task_executor.h"
 
@@ -24,7 +25,8 @@ namespace {
 constexpr size_t kTetChunk = 128;
 /// Vertex rows per chunk of the force gather and of the K' assembly.
 constexpr size_t kRowChunk = 64;
-static_assert(kTetChunk % kRotationBatchLanes == 0, "chunks hold whole batches");
+static_assert(kTetChunk % kRotationBatchLanes == 0 && kTetChunk % kRotationBatchLanesAvx2 == 0,
+              "chunks hold whole batches");
 
 }  // namespace
 
@@ -33,15 +35,19 @@ double CorotationalFem::evaluate_pass_parallel(std::span<const Vec3> x, const st
                                                std::vector<double>& tet_energy) const {
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   tet_force_scratch_.resize(nt);
-  constexpr size_t L = kRotationBatchLanes;
+  // The serial pass's lanes: four in AVX2 registers where the CPU has them (the same bits as the
+  // scalar batch and as extract_rotation, so chunk boundaries change nothing).
+  const size_t L = vector_kernels_ ? kRotationBatchLanesAvx2 : kRotationBatchLanes;
   // Per tet: rotation, energy, element forces (evaluate_pass's expressions, bit for bit).
   parallel_for_chunks(executor_, nt, kTetChunk, [&](size_t begin, size_t end) {
-    Mat3 F[L];
+    Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
     for (size_t t0 = begin; t0 < end; t0 += L) {
       const size_t lanes = std::min(L, end - t0);
       for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
       if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
-      if (lanes == L) {
+      if (lanes == L && vector_kernels_) {
+        extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+      } else if (lanes == L) {
         extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
       } else {
         for (size_t l = 0; l < lanes; ++l) {
