@@ -364,6 +364,42 @@ void CorotationalFem::assemble_step_stiffness() {
   stiffness_assembled_ = true;
 }
 
+size_t CorotationalFem::evaluation_batch_lanes() const {
+  return vector_kernels_ ? kRotationBatchLanesAvx2 : kRotationBatchLanes;
+}
+
+void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vector<Quat>& warm_starts,
+                                         std::vector<Quat>& rotations, std::vector<double>& tet_energy, size_t t0,
+                                         size_t lanes, Mat3* H) const {
+  // Rotations a batch at a time (extract_rotations_batch: the scalar's result bit for bit, the
+  // latency-bound iterations of the lanes overlapped), four in AVX2 registers where the CPU has
+  // them (session 9, rotation_batch_avx2.h), a short batch tet by tet in order.
+  const size_t L = evaluation_batch_lanes();
+  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
+  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
+  if (lanes == L && vector_kernels_) {
+    extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  } else if (lanes == L) {
+    extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  } else {
+    for (size_t l = 0; l < lanes; ++l) {
+      extract_rotation(F[l], rotations[t0 + l], kElementRotationIterations, kElementRotationTolerance);
+    }
+  }
+  for (size_t l = 0; l < lanes; ++l) {
+    const size_t t = t0 + l;
+    const Mat3 R = rotations[t].toRotationMatrix();
+    // The rotated shape gradients R Dm^-T are left to their readers (rotated_gradient(t)); the
+    // trace and F - R are shared by the energy and P (first_piola's expressions, bit for bit).
+    const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
+    const Mat3 FmR = F[l] - R;
+    tet_energy[t] = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
+    const Mat3 P = 2.0 * mu_ * FmR + lambda_ * trace * R;
+    H[l] = -volume_[t] * P * rest_shape_inverse_[t].transpose();
+  }
+}
+
 double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector<Quat>& warm_starts,
                                       std::vector<Quat>& rotations, std::vector<Vec3>& forces,
                                       std::vector<double>& tet_energy) const {
@@ -371,36 +407,14 @@ double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector
   std::fill(forces.begin(), forces.end(), Vec3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
-  // Rotations kRotationBatchLanes tets at a time (extract_rotations_batch: the scalar's result bit
-  // for bit, the latency-bound iterations of the lanes overlapped), four in AVX2 registers where
-  // the CPU has them (session 9, rotation_batch_avx2.h), the rest tet by tet in order.
-  const size_t L = vector_kernels_ ? kRotationBatchLanesAvx2 : kRotationBatchLanes;
-  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  const size_t L = evaluation_batch_lanes();
+  Mat3 H[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
   for (size_t t0 = 0; t0 < nt; t0 += L) {
     const size_t lanes = std::min(L, nt - t0);
-    for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
-    if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
-    if (lanes == L && vector_kernels_) {
-      extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
-    } else if (lanes == L) {
-      extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
-    } else {
-      for (size_t l = 0; l < lanes; ++l) {
-        extract_rotation(F[l], rotations[t0 + l], kElementRotationIterations, kElementRotationTolerance);
-      }
-    }
+    evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, lanes, H);
     for (size_t l = 0; l < lanes; ++l) {
-      const size_t t = t0 + l;
-      const Mat3 R = rotations[t].toRotationMatrix();
-      // The rotated shape gradients R Dm^-T are left to their readers (rotated_gradient(t)); the
-      // trace and F - R are shared by the energy and P (first_piola's expressions, bit for bit).
-      const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
-      const Mat3 FmR = F[l] - R;
-      const double e = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
-      tet_energy[t] = e;
-      energy += e;
-      const Mat3 P = 2.0 * mu_ * FmR + lambda_ * trace * R;
-      scatter_tet(mesh_->tets()[t], -volume_[t] * P * rest_shape_inverse_[t].transpose(), forces);
+      energy += tet_energy[t0 + l];
+      scatter_tet(mesh_->tets()[t0 + l], H[l], forces);
     }
   }
   return energy;

@@ -152,6 +152,14 @@ class CorotationalFem final : public DeformationModel {
   /// `rotations` itself), forces (N), per-tet energies (J); returns the energy (J).
   double evaluate_pass(std::span<const Vec3> x, const std::vector<Quat>& warm_starts, std::vector<Quat>& rotations,
                        std::vector<Vec3>& forces, std::vector<double>& tet_energy) const;
+  /// Tets in one rotation batch of evaluate_pass (four with the AVX2 lanes, kRotationBatchLanes
+  /// otherwise).
+  size_t evaluation_batch_lanes() const;
+  /// evaluate_pass's per-tet work for tets t0 .. t0 + lanes - 1 (lanes <= evaluation_batch_lanes()):
+  /// rotations from `warm_starts` into `rotations`, energies (J) into `tet_energy`, and each tet's
+  /// -V P Dm^-T (N) into H[l]; shared by the serial and the threaded pass, so both are the same bits.
+  void evaluate_tet_batch(std::span<const Vec3> x, const std::vector<Quat>& warm_starts, std::vector<Quat>& rotations,
+                          std::vector<double>& tet_energy, size_t t0, size_t lanes, Mat3* H) const;
   /// Full pass at x: rotations, forces, energies, rotated gradients [and assembled K'] (adopts the
   /// pass memo when it belongs to x and the current warm starts).
   void linearise(std::span<const Vec3> x, bool assemble);

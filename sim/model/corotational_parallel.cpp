@@ -35,34 +35,12 @@ double CorotationalFem::evaluate_pass_parallel(std::span<const Vec3> x, const st
                                                std::vector<double>& tet_energy) const {
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   tet_force_scratch_.resize(nt);
-  // The serial pass's lanes: four in AVX2 registers where the CPU has them (the same bits as the
-  // scalar batch and as extract_rotation, so chunk boundaries change nothing).
-  const size_t L = vector_kernels_ ? kRotationBatchLanesAvx2 : kRotationBatchLanes;
-  // Per tet: rotation, energy, element forces (evaluate_pass's expressions, bit for bit).
+  // Per tet: rotation, energy, element forces (evaluate_tet_batch, the serial pass's own code; its
+  // batches give the same bits as extract_rotation tet by tet, so chunk boundaries change nothing).
+  const size_t L = evaluation_batch_lanes();
   parallel_for_chunks(executor_, nt, kTetChunk, [&](size_t begin, size_t end) {
-    Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
     for (size_t t0 = begin; t0 < end; t0 += L) {
-      const size_t lanes = std::min(L, end - t0);
-      for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
-      if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
-      if (lanes == L && vector_kernels_) {
-        extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
-      } else if (lanes == L) {
-        extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
-      } else {
-        for (size_t l = 0; l < lanes; ++l) {
-          extract_rotation(F[l], rotations[t0 + l], kElementRotationIterations, kElementRotationTolerance);
-        }
-      }
-      for (size_t l = 0; l < lanes; ++l) {
-        const size_t t = t0 + l;
-        const Mat3 R = rotations[t].toRotationMatrix();
-        const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
-        const Mat3 FmR = F[l] - R;
-        tet_energy[t] = volume_[t] * (mu_ * FmR.squaredNorm() + 0.5 * lambda_ * trace * trace);
-        const Mat3 P = 2.0 * mu_ * FmR + lambda_ * trace * R;
-        tet_force_scratch_[t] = -volume_[t] * P * rest_shape_inverse_[t].transpose();
-      }
+      evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, std::min(L, end - t0), &tet_force_scratch_[t0]);
     }
   });
   // Per vertex: the serial scatter_tet's additions to this vertex, in ascending tet order.

@@ -10,34 +10,15 @@
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
 #include "sim/model/fused_ssor_kernels.h"
+#include "support/sagging_cantilever.h"
 #include "support/vec_compare.h"
 
 namespace pliant {
 namespace {
 
 // A cantilever of 40 x 4 x 4 cells (1,025 vertices) sagging under gravity, fixed at x = -0.5 m.
-struct Cantilever {
-  TetMeshPtr mesh = make_box_mesh({Vec3(0.5, 0.05, 0.05), 40, 4, 4});
-  Material m = [] {
-    Material material;
-    material.young_modulus = 1e5;
-    material.poisson_ratio = 0.45;
-    material.density = 1000.0;
-    material.stiffness_damping = 0.01;
-    return material;
-  }();
-  size_t n = static_cast<size_t>(mesh->vertex_count());
-  std::vector<double> masses = mesh->lumped_masses(m.density);
-  std::vector<char> fixed = std::vector<char>(n, 0);
-  std::vector<Vec3> ext = std::vector<Vec3>(n);
-  std::vector<Vec3> x = mesh->rest_positions(), v = std::vector<Vec3>(n, Vec3::Zero());
-  Cantilever() {
-    for (size_t i = 0; i < n; ++i) {
-      fixed[i] = x[i].x() < -0.5 + 1e-12 ? 1 : 0;
-      ext[i] = masses[i] * Vec3(0, 0, -9.81);
-    }
-  }
-  IntegrationResult step(DeformationModel& model) { return model.advance(x, v, {masses, fixed, ext, 1e-2}); }
+struct Cantilever : SaggingCantilever {
+  Cantilever() : SaggingCantilever(0.5, 0.05, 40, 4, 1e5) {}
 };
 
 ModelSettings settings(int iterations, double tolerance) {

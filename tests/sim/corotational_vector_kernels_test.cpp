@@ -10,6 +10,7 @@
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
 #include "sim/model/stiffness_row_kernels.h"
+#include "support/sagging_cantilever.h"
 
 namespace pliant {
 namespace {
@@ -23,29 +24,9 @@ bool same_bits(std::span<const Mat3> a, std::span<const Mat3> b) {
 }
 
 // A cantilever of 24 x 3 x 3 cells, soft (E = 1e4 Pa) so it swings through large rotations under
-// gravity at 10 ms steps, fixed at x = -0.3 m; the damping makes the K' blocks enter the system.
-struct Cantilever {
-  TetMeshPtr mesh = make_box_mesh({Vec3(0.6, 0.06, 0.06), 24, 3, 3});
-  Material m = [] {
-    Material material;
-    material.young_modulus = 1e4;
-    material.poisson_ratio = 0.45;
-    material.density = 1000.0;
-    material.stiffness_damping = 0.01;
-    return material;
-  }();
-  size_t n = static_cast<size_t>(mesh->vertex_count());
-  std::vector<double> masses = mesh->lumped_masses(m.density);
-  std::vector<char> fixed = std::vector<char>(n, 0);
-  std::vector<Vec3> ext = std::vector<Vec3>(n);
-  std::vector<Vec3> x = mesh->rest_positions(), v = std::vector<Vec3>(n, Vec3::Zero());
-  Cantilever() {
-    for (size_t i = 0; i < n; ++i) {
-      fixed[i] = x[i].x() < -0.3 + 1e-12 ? 1 : 0;
-      ext[i] = masses[i] * Vec3(0, 0, -9.81);
-    }
-  }
-  IntegrationResult step(DeformationModel& model) { return model.advance(x, v, {masses, fixed, ext, 1e-2}); }
+// gravity at 10 ms steps, fixed at x = -0.3 m.
+struct Cantilever : SaggingCantilever {
+  Cantilever() : SaggingCantilever(0.6, 0.06, 24, 3, 1e4) {}
 };
 
 // Steps with K' reuse (some rows summed again per step) and without (all rows), and then K' at
