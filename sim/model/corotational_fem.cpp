@@ -32,7 +32,7 @@ inline void scatter_tet(const TetIndices& tet, const Mat3& H, std::span<Vec3> f)
   for (int j = 0; j < 3; ++j) f[static_cast<size_t>(tet[static_cast<size_t>(j + 1)])] += H.col(j);
 }
 
-/// tet_gradient_kernels_available(), asked once (the per-tet functions test it on every call).
+/// tet_gradient_kernels_available(), asked once (the callers test it per batch of tets).
 inline bool tet_kernels_on_this_cpu() {
   static const bool available = tet_gradient_kernels_available();
   return available;
