@@ -14,6 +14,7 @@
 #include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/model/stiffness_row_kernels.h"
+#include "sim/model/tet_gradient_kernels.h"
 #include "sim/parallel/task_executor.h"
 
 namespace pliant {
@@ -29,6 +30,12 @@ constexpr size_t kIncrementalFraction = 16;
 inline void scatter_tet(const TetIndices& tet, const Mat3& H, std::span<Vec3> f) {
   f[static_cast<size_t>(tet[0])] -= H.col(0) + H.col(1) + H.col(2);
   for (int j = 0; j < 3; ++j) f[static_cast<size_t>(tet[static_cast<size_t>(j + 1)])] += H.col(j);
+}
+
+/// tet_gradient_kernels_available(), asked once (the callers test it per batch of tets).
+inline bool tet_kernels_on_this_cpu() {
+  static const bool available = tet_gradient_kernels_available();
+  return available;
 }
 
 inline double dot(std::span<const Vec3> a, std::span<const Vec3> b) {
@@ -275,7 +282,11 @@ void CorotationalFem::refresh_rotated_gradients() const {
     return;
   }
   const auto nt = static_cast<size_t>(mesh_->tet_count());
-  for (size_t t = 0; t < nt; ++t) rotated_gradients_[t] = rotated_gradient(t);
+  if (vector_kernels_ && tet_kernels_on_this_cpu()) {  // the same gradients bit for bit (tet_gradient_kernels.h)
+    rotated_gradients_avx2(rotations_.data(), rest_shape_inverse_.data(), nt, rotated_gradients_.data());
+  } else {
+    for (size_t t = 0; t < nt; ++t) rotated_gradients_[t] = rotated_gradient(t);
+  }
   gradients_current_ = true;
 }
 
@@ -351,7 +362,12 @@ void CorotationalFem::assemble_step_stiffness() {
   for (size_t t = 0; t < nt; ++t) {
     if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
     block_rotations_[t] = rotations_[t];
-    block_gradients_[t] = rotated_gradient(t);  // rotated_gradients_ may be stale (linearise)
+    // rotated_gradients_ may be stale (linearise)
+    if (vector_kernels_ && tet_kernels_on_this_cpu()) {
+      rotated_gradients_avx2(&rotations_[t], &rest_shape_inverse_[t], 1, &block_gradients_[t]);
+    } else {
+      block_gradients_[t] = rotated_gradient(t);
+    }
     for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
   }
   size_t rows = 0;
@@ -376,7 +392,12 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
   // them (session 9, rotation_batch_avx2.h), a short batch tet by tet in order.
   const size_t L = evaluation_batch_lanes();
   Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
-  for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
+  const bool lanes_kernels = vector_kernels_ && tet_kernels_on_this_cpu();  // tet_gradient_kernels.h, bit for bit
+  if (lanes_kernels) {
+    deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], lanes, F);
+  } else {
+    for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
+  }
   if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
   if (lanes == L && vector_kernels_) {
     extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
@@ -386,6 +407,11 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
     for (size_t l = 0; l < lanes; ++l) {
       extract_rotation(F[l], rotations[t0 + l], kElementRotationIterations, kElementRotationTolerance);
     }
+  }
+  if (lanes_kernels) {
+    element_forces_avx2(&rotations[t0], F, &rest_shape_inverse_[t0], &volume_[t0], mu_, lambda_, lanes, &tet_energy[t0],
+                        H);
+    return;
   }
   for (size_t l = 0; l < lanes; ++l) {
     const size_t t = t0 + l;
@@ -412,6 +438,11 @@ double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector
   for (size_t t0 = 0; t0 < nt; t0 += L) {
     const size_t lanes = std::min(L, nt - t0);
     evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, lanes, H);
+    if (vector_kernels_ && tet_kernels_on_this_cpu()) {  // the same sums bit for bit (tet_gradient_kernels.h)
+      for (size_t l = 0; l < lanes; ++l) energy += tet_energy[t0 + l];
+      scatter_element_forces_avx2(&mesh_->tets()[t0], H, lanes, forces.data()->data());
+      continue;
+    }
     for (size_t l = 0; l < lanes; ++l) {
       energy += tet_energy[t0 + l];
       scatter_tet(mesh_->tets()[t0 + l], H[l], forces);
