@@ -210,7 +210,7 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
 }
 
 // Session 10: a pre-stressed stick (the probe scene's held probe). A top vertex of a fixed-base
-// block (1 MPa: omega dt = 3-4 at 1 ms) was stuck to a resting instrument 0.2 mm from its rest
+// block (1 MPa: omega dt = 4.9 at 1 ms) was stuck to a resting instrument 0.2 mm from its rest
 // place; the step's integration let it relax to rest (x = rest, v = -X / dt, so it started at
 // rest + X) and friction sticks it back. Reference: the step start, rest + X, which the contact
 // already stored. The limit must leave the move whole (positions bit-identical to the full
