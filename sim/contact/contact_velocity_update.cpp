@@ -57,7 +57,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
   if (std::any_of(held_normal_impulse.begin(), held_normal_impulse.end(), [](double j) { return j > 0.0; })) {
     rigid.resize(bodies.size());
   }
-  if (friction_moves != nullptr) friction_moves->begin(bodies.size());
+  if (friction_moves != nullptr) friction_moves->begin(bodies, dt);
   for (size_t c = 0; c < contacts.size(); ++c) {
     const VertexContact& contact = contacts[c];
     Body& m = *bodies[static_cast<size_t>(contact.body)];

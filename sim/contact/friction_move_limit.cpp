@@ -28,10 +28,11 @@ double vertex_stiffness_along(const Body& body, int vertex, const Vec3& directio
   return k;
 }
 
-double move_energy(const Body& body, std::span<const Vec3> move) {
+MoveEnergyTerms move_energy_terms(const Body& body, std::span<const Vec3> move, std::span<const Vec3> base) {
   const TetMesh& mesh = *body.mesh;
   const double mu = body.material.lame_mu(), lambda = body.material.lame_lambda();
-  double energy = 0.0;
+  const bool with_base = !base.empty();
+  MoveEnergyTerms terms;
   for (const TetIndices& tet : mesh.tets()) {
     bool moved = false;
     for (int v : tet) moved = moved || move[static_cast<size_t>(v)].squaredNorm() > 0.0;
@@ -43,15 +44,33 @@ double move_energy(const Body& body, std::span<const Vec3> move) {
     if (!(volume > 0.0)) continue;
     // Rows of edges^-1 are grad N_1..3; grad N_0 = -(their sum). grad u = sum_a u_a grad N_a^T.
     const Eigen::Matrix3d inverse = edges.inverse();
-    Eigen::Matrix3d grad_u = Eigen::Matrix3d::Zero();
-    const Vec3& u0 = move[static_cast<size_t>(tet[0])];
-    for (int a = 1; a < 4; ++a) {
-      grad_u += (move[static_cast<size_t>(tet[static_cast<size_t>(a)])] - u0) * inverse.row(a - 1);
-    }
-    const Eigen::Matrix3d strain = 0.5 * (grad_u + grad_u.transpose());
-    energy += volume * (mu * strain.squaredNorm() + 0.5 * lambda * std::pow(strain.trace(), 2));
+    auto strain = [&](std::span<const Vec3> u) {
+      Eigen::Matrix3d grad_u = Eigen::Matrix3d::Zero();
+      const Vec3& u0 = u[static_cast<size_t>(tet[0])];
+      for (int a = 1; a < 4; ++a) {
+        grad_u += (u[static_cast<size_t>(tet[static_cast<size_t>(a)])] - u0) * inverse.row(a - 1);
+      }
+      return Eigen::Matrix3d(0.5 * (grad_u + grad_u.transpose()));
+    };
+    const Eigen::Matrix3d er = strain(move);
+    terms.own += volume * (2.0 * mu * er.squaredNorm() + lambda * std::pow(er.trace(), 2));
+    if (!with_base) continue;
+    const Eigen::Matrix3d ed = strain(base);
+    terms.cross += volume * (2.0 * mu * er.cwiseProduct(ed).sum() + lambda * er.trace() * ed.trace());
   }
-  return energy;
+  return terms;
+}
+
+double move_energy(const Body& body, std::span<const Vec3> move) {
+  return 0.5 * move_energy_terms(body, move, {}).own;
+}
+
+double friction_move_scale(const MoveEnergyTerms& terms, double budget) {
+  if (terms.added(1.0) <= budget) return 1.0;
+  // added(s) = budget: own s^2 / 2 + cross s - budget = 0, the positive root (added(0) = 0 <= budget,
+  // so it lies in (0, 1)), written without cancellation for either sign of cross.
+  const double root = std::sqrt(terms.cross * terms.cross + 2.0 * terms.own * budget);
+  return terms.cross >= 0.0 ? 2.0 * budget / (terms.cross + root) : (root - terms.cross) / terms.own;
 }
 
 void friction_move_deforming_part(const Body& body, std::span<const Vec3> move, std::vector<Vec3>& remainder) {
@@ -86,8 +105,7 @@ void friction_move_deforming_part(const Body& body, std::span<const Vec3> move, 
 }
 
 double friction_move_scale(const Body& body, std::span<const Vec3> move, double budget) {
-  const double energy = move_energy(body, move);
-  return energy > budget ? std::sqrt(budget / energy) : 1.0;
+  return friction_move_scale(move_energy_terms(body, move, {}), budget);
 }
 
 void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
@@ -95,7 +113,13 @@ void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
     if (!touched[i]) continue;
     Body& body = *bodies[i];
     friction_move_deforming_part(body, moves[i], deforming);
-    const double scale = friction_move_scale(body, deforming, budget[i]);
+    // The step's displacement before the deforming part: the integration's dt v_{n+1} (the
+    // velocities before this pass's impulses: a normal impulse changes a velocity, not a position)
+    // plus the moves' rigid part, which is kept.
+    const std::vector<Vec3>& v0 = start_velocities[i];
+    base.resize(body.positions.size());
+    for (size_t v = 0; v < base.size(); ++v) base[v] = time_step * v0[v] + (moves[i][v] - deforming[v]);
+    const double scale = friction_move_scale(move_energy_terms(body, deforming, base), budget[i]);
     if (scale >= 1.0) continue;
     for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];
   }

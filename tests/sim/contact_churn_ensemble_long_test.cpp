@@ -22,12 +22,15 @@ constexpr double kShifts_m[] = {0.0, 1e-7, 2e-7, 3e-7, 5e-7, 7e-7, 1e-6, 1.5e-6,
 
 // Geometric mean of the late KE (J) over the shifts, with the linearised search on or off and
 // ContactSettings::held_force_release as given.
-double churn_geometric_mean(double mu, double dt, bool fixed_base, bool linearised, bool release = false) {
+// With `limit`, ContactSettings::limit_friction_move on.
+double churn_geometric_mean(double mu, double dt, bool fixed_base, bool linearised, bool release = false,
+                            bool limit = false) {
   double log_sum = 0.0;
   for (double shift : kShifts_m) {
     auto adjust = [&](ContactSettings& c) {
       c.linearised_search = linearised;
       c.held_force_release = release;
+      c.limit_friction_move = c.limit_friction_move || limit;
     };
     const ChurnRun r = run_block_stack(2, mu, dt, fixed_base, adjust, shift);
     log_sum += std::log(r.kinetic_late_max);
@@ -62,6 +65,24 @@ TEST(ContactChurnEnsemble, LongDefaultSearchChurnsNoMoreThanTheSession5Search) {
 // finding on one run, here over 16), which is why it stays opt-in.
 TEST(ContactChurnEnsemble, LongHeldForceReleaseLowersTheFrictionlessChurn) {
   EXPECT_LT(churn_geometric_mean(0.0, 1e-3, false, true, true), churn_geometric_mean(0.0, 1e-3, false, true, false));
+}
+
+// Session 10: ContactSettings::limit_friction_move (the friction-move limit counted beyond the
+// stuck contacts' pre-stress, docs/stability.md) on resting stacks, where every contact sticks.
+// Reference: the same 16 shifts without the limit. Bound 1.5x, as above (an ensemble's spread).
+TEST(ContactChurnEnsemble, LongFrictionMoveLimitChurnsNoMoreThanTheFullMove) {
+  struct Case {
+    const char* name;
+    double mu, dt;
+    bool fixed_base;
+  };
+  for (const Case& c : {Case{"two free blocks, mu 0.5, 1 ms", 0.5, 1e-3, false},
+                        Case{"block on a fixed-base block, mu 0.5, 0.5 ms", 0.5, 5e-4, true}}) {
+    const double limited = churn_geometric_mean(c.mu, c.dt, c.fixed_base, true, false, true);
+    const double full = churn_geometric_mean(c.mu, c.dt, c.fixed_base, true, false, false);
+    std::printf("%s: late KE geometric mean %.3g J (limit) vs %.3g J (full move)\n", c.name, limited, full);
+    EXPECT_LE(limited, 1.5 * full) << c.name;
+  }
 }
 
 }  // namespace

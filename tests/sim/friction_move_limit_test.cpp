@@ -91,6 +91,33 @@ TEST(FrictionMoveLimit, RigidMoveOfAWholeBlockOrOfItsContactFaceIsUnchanged) {
   EXPECT_NEAR(friction_move_scale(block, one, 1e-2 * one_energy), 0.1, 1e-12);
 }
 
+/// A contact of `vertex` of `body` against the triangle of `partner`'s surface that lies in the
+/// plane z = `face_z` and contains the vertex's xy projection (contact_triangle -1 if none); the
+/// caller sets the body indices.
+VertexContact contact_in_face(const Body& body, int vertex, const Body& partner, double face_z) {
+  const Vec3 p = body.positions[static_cast<size_t>(vertex)];
+  VertexContact contact;
+  contact.vertex = vertex;
+  const auto& tris = partner.mesh->surface_triangles();
+  for (size_t t = 0; t < tris.size() && contact.contact_triangle < 0; ++t) {
+    const Vec3 a = partner.positions[static_cast<size_t>(tris[t][0])],
+               b = partner.positions[static_cast<size_t>(tris[t][1])],
+               cc = partner.positions[static_cast<size_t>(tris[t][2])];
+    const bool in_face = std::abs(a.z() - face_z) < 1e-9 && std::abs(b.z() - face_z) < 1e-9 &&
+                         std::abs(cc.z() - face_z) < 1e-9;
+    if (!in_face) continue;
+    // Barycentric coordinates of p's projection in the xy plane.
+    const double det = (b.x() - a.x()) * (cc.y() - a.y()) - (cc.x() - a.x()) * (b.y() - a.y());
+    const double l1 = ((p.x() - a.x()) * (cc.y() - a.y()) - (cc.x() - a.x()) * (p.y() - a.y())) / det;
+    const double l2 = ((b.x() - a.x()) * (p.y() - a.y()) - (p.x() - a.x()) * (b.y() - a.y())) / det;
+    if (l1 < 0 || l2 < 0 || l1 + l2 > 1) continue;
+    contact.contact_triangle = static_cast<int>(t);
+    contact.contact_barycentric = Vec3(1 - l1 - l2, l1, l2);
+    contact.contact_point = (1 - l1 - l2) * a + l1 * b + l2 * cc;
+  }
+  return contact;
+}
+
 /// Kinetic energy of a body (J).
 double kinetic(const Body& b) {
   double e = 0.0;
@@ -98,10 +125,14 @@ double kinetic(const Body& b) {
   return e;
 }
 
-// The 1 mg block with a sliver tet touching the lower block: its vertex next to the sliver's apex
-// (0.05 mm apart along x) slides in +x and approaches, so friction slows it. Stage 5 should take
-// energy out (kinetic removed >= elastic stored): with the full move dt dv (the default) it stores
-// 34,000 times more than it removes; with limit_friction_move no more than it removes.
+// The 1 mg block with a sliver tet touching the lower block: the block slides in +x and
+// approaches, and friction slows its vertex next to the sliver's apex (0.05 mm apart along x)
+// alone. Stage 5 should take energy out (kinetic removed >= elastic stored): with the full move
+// dt dv (the default) it stores thousands of times more than it removes; with
+// limit_friction_move no more than it removes. The whole block moves (session 10): its positions
+// were integrated with that velocity, so the step moved it rigidly and the move that pins one
+// vertex back is all new strain (a lone vertex velocity would read as the step having deformed
+// the block, which the move partly undoes).
 TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves) {
   Case c{.name = "surface 1 mg sliver", .method = ContactMethod::contact_surface};
   c.upper_mass = 1e-6;
@@ -130,31 +161,15 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
   const Vec3 p = upper.positions[static_cast<size_t>(neighbour)];
 
   // The lower block's top triangle under it (top face at z = 0).
-  VertexContact contact;
+  VertexContact contact = contact_in_face(upper, neighbour, lower, 0.0);
   contact.body = static_cast<int>(scene.upper.index);
-  contact.vertex = neighbour;
   contact.penetrated_body = static_cast<int>(scene.lower.index);
-  const auto& tris = lower.mesh->surface_triangles();
-  for (size_t t = 0; t < tris.size() && contact.contact_triangle < 0; ++t) {
-    const Vec3 a = lower.positions[static_cast<size_t>(tris[t][0])],
-               b = lower.positions[static_cast<size_t>(tris[t][1])],
-               cc = lower.positions[static_cast<size_t>(tris[t][2])];
-    if (std::abs(a.z()) > 1e-9 || std::abs(b.z()) > 1e-9 || std::abs(cc.z()) > 1e-9) continue;
-    // Barycentric coordinates of p's projection in the xy plane.
-    const double det = (b.x() - a.x()) * (cc.y() - a.y()) - (cc.x() - a.x()) * (b.y() - a.y());
-    const double l1 = ((p.x() - a.x()) * (cc.y() - a.y()) - (cc.x() - a.x()) * (p.y() - a.y())) / det;
-    const double l2 = ((b.x() - a.x()) * (p.y() - a.y()) - (p.x() - a.x()) * (b.y() - a.y())) / det;
-    if (l1 < 0 || l2 < 0 || l1 + l2 > 1) continue;
-    contact.contact_triangle = static_cast<int>(t);
-    contact.contact_barycentric = Vec3(1 - l1 - l2, l1, l2);
-    contact.contact_point = (1 - l1 - l2) * a + l1 * b + l2 * cc;
-  }
   ASSERT_GE(contact.contact_triangle, 0);
   contact.penetration_direction = Vec3(0, 0, 1);
 
-  // Sliding +x at 0.3 m/s and approaching at 0.3 m/s: the normal impulse stops the approach and
-  // friction (mu 0.2) takes up to 0.06 m/s off the slide.
-  upper.velocities[static_cast<size_t>(neighbour)] = Vec3(0.3, 0.0, -0.3);
+  // Sliding +x at 0.3 m/s and approaching at 0.3 m/s: the normal impulse stops the vertex's
+  // approach and friction (mu 0.2) takes up to 0.06 m/s off its slide.
+  for (Vec3& v : upper.velocities) v = Vec3(0.3, 0.0, -0.3);
   const double dt = c.dt;
   const std::vector<Vec3> x0[2] = {upper.positions, lower.positions};
   const std::vector<Vec3> v0[2] = {upper.velocities, lower.velocities};
@@ -185,12 +200,74 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
     return b;
   };
   const Balance full = stage5(false), limited = stage5(true);
-  // The mechanism (measured 0.06 mm moved, 1.63e-5 J stored against 4.8e-10 J removed).
+  // The mechanism (session 7, the vertex alone sliding: 0.06 mm moved, 1.63e-5 J stored against
+  // 4.8e-10 J removed).
   EXPECT_GT(full.stored, 1e3 * full.removed);
   // The limit: the same kinetic energy removed (velocities are untouched), no more stored.
   EXPECT_EQ(limited.removed, full.removed);
   EXPECT_GT(limited.removed, 0.0);
   EXPECT_LE(limited.stored, limited.removed);
+}
+
+// Session 10: a pre-stressed stick (the probe scene's held probe). A top vertex of a fixed-base
+// block (1 MPa: omega dt = 4.9 at 1 ms) was stuck to a resting instrument 0.2 mm from its rest
+// place; the step's integration let it relax to rest (x = rest, v = -X / dt, so it started at
+// rest + X) and friction sticks it back. Reference: the step start, rest + X, which the contact
+// already stored. The limit must leave the move whole (positions bit-identical to the full
+// move); the pre-stress-blind bound (the move charged alone) would have taken back 1 - 1 /
+// (omega dt) of it, omega^2 = k / m with k = vertex_stiffness_along: the stuck vertex would slip.
+TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
+  Case c{.name = "surface instrument 1 MPa", .method = ContactMethod::contact_surface};
+  c.partner = Partner::instrument;
+  c.young_mean = 1e6;
+  World world(world_settings(c));
+  const Scene scene = build_scene(c, world);
+  Body& lower = world.body(scene.lower);
+  const Body& instrument = world.body(scene.upper);
+  // A top-face vertex under the instrument's bottom face (z = 0), away from its edges.
+  int top = -1;
+  for (int v = 0; v < lower.vertex_count() && top < 0; ++v) {
+    const Vec3& x = lower.positions[static_cast<size_t>(v)];
+    if (std::abs(x.z()) < 1e-12 && std::abs(x.x()) < 0.012 && std::abs(x.y()) < 0.012) top = v;
+  }
+  ASSERT_GE(top, 0);
+  VertexContact contact = contact_in_face(lower, top, instrument, scene.start.z() - 0.5 * kUpperHeight);
+  contact.body = static_cast<int>(scene.lower.index);
+  contact.penetrated_body = static_cast<int>(scene.upper.index);
+  ASSERT_GE(contact.contact_triangle, 0);
+  contact.penetration_direction = Vec3(0, 0, -1);
+
+  const double dt = c.dt, X = 2e-4;  // s, m
+  const Vec3 rest = lower.positions[static_cast<size_t>(top)];
+  lower.velocities[static_cast<size_t>(top)] = Vec3(-X / dt, 0.0, 0.0);
+  const double m = lower.masses[static_cast<size_t>(top)];
+  // A held normal impulse whose cone holds the stick (mu 0.2): mu J = 10 m X / dt.
+  const std::vector<double> held = {10.0 * m * X / dt / 0.2};
+  const std::vector<VertexContact> contacts = {contact};
+  const std::vector<Vec3> x0 = lower.positions, v0 = lower.velocities;
+  auto stage5 = [&](bool limit) {
+    lower.positions = x0, lower.velocities = v0;
+    std::vector<ContactImpulse> impulses;
+    std::vector<RigidModes> rigid;
+    FrictionMoveLedger ledger;
+    apply_contact_velocity_update(world.bodies(), contacts, dt, true, held, contacts.size(), impulses, rigid,
+                                  limit ? &ledger : nullptr);
+    return lower.positions;
+  };
+  const std::vector<Vec3> full = stage5(false), limited = stage5(true);
+  // Stuck: the full move returns the vertex to where the step started (rest + X), and the limit
+  // takes nothing back.
+  EXPECT_NEAR((full[static_cast<size_t>(top)] - (rest + Vec3(X, 0, 0))).norm(), 0.0, 1e-12);
+  EXPECT_EQ(limited, full);
+  // The bound blind to the pre-stress would have scaled the same move by 1 / (omega dt) < 1.
+  std::vector<Vec3> move(lower.positions.size(), Vec3::Zero());
+  move[static_cast<size_t>(top)] = Vec3(X, 0, 0);
+  const double k = vertex_stiffness_along(lower, top, Vec3(1, 0, 0));
+  const double omega_dt = std::sqrt(k / m) * dt;
+  const double blind = friction_move_scale(lower, move, 0.5 * m * (X / dt) * (X / dt));
+  EXPECT_GT(omega_dt, 2.0);
+  // (vertex_stiffness_along and move_energy agree to 0.1% for this vertex: 0.20488 vs 0.20499)
+  EXPECT_NEAR(blind, 1.0 / omega_dt, 2e-3 / omega_dt);
 }
 
 }  // namespace
