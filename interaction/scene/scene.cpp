@@ -179,7 +179,14 @@ ContactSettings read_contact(const JsonReader& j) {
     }
   };
   read_fraction("held_force_fraction", c.held_force_fraction);
-  read_fraction("deformable_pair_held_force_fraction", c.deformable_pair_held_force_fraction);
+  // Session 10: "derived" instead of a number holds each pair's contact-mode strength
+  // (ContactSettings::deformable_pair_held_force_derived).
+  if (auto it = j.find("deformable_pair_held_force_fraction"); it && it->is_string()) {
+    it->choice({"derived"});
+    c.deformable_pair_held_force_derived = true;
+  } else {
+    read_fraction("deformable_pair_held_force_fraction", c.deformable_pair_held_force_fraction);
+  }
   return c;
 }
 

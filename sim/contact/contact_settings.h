@@ -159,6 +159,13 @@ struct ContactSettings {
   /// releases the probe's lingering contacts 2.5-4.4 mm above the tissue while it slides (probe
   /// tool force differs from t = 1.906 s, by up to 0.25 N). false: session 8's release, bit for bit.
   bool release_distant_held_contacts = false;
+  /// Beyond the paper, opt-in (session 10, docs/contact-surface.md "Resting churn, session 10"): a
+  /// contact between two movable deformable bodies holds min(held_force_fraction,
+  /// deformable_pair_held_force_fraction, 1 / (1 + (omega dt / 2)^2)) of its normal force, omega^2 =
+  /// k / m the pair's contact mode (derived_held_fraction.h): the force an energy-conserving
+  /// (trapezoidal) step of that contact spring applies from a state at rest. Scene value "derived".
+  /// false: session 9's rule, bit for bit.
+  bool deformable_pair_held_force_derived = false;
 };
 
 }  // namespace pliant

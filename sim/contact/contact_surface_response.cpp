@@ -19,6 +19,8 @@
 #include <limits>
 #include <numeric>
 
+#include "sim/contact/derived_held_fraction.h"
+
 namespace pliant {
 namespace {
 
@@ -360,8 +362,48 @@ void ContactSurfaceResponse::gather_contacts(std::span<Body* const> bodies, std:
   }
 }
 
+void ContactSurfaceResponse::derive_pair_held_fractions(std::span<Body* const> bodies, double dt,
+                                                        double pair_fraction) {
+  pair_held_.clear();
+  auto movable = [&](int body) {
+    const Body& b = *bodies[static_cast<size_t>(body)];
+    return !b.is_kinematic() && !b.is_sleeping();
+  };
+  for (size_t c = 0; c < all_contacts_.size(); ++c) {
+    if (impulses_[c].normal_magnitude <= 0.0) continue;
+    const VertexContact& contact = all_contacts_[c];
+    if (!movable(contact.body) || !movable(contact.penetrated_body)) continue;
+    const int a = std::min(contact.body, contact.penetrated_body), b = std::max(contact.body, contact.penetrated_body);
+    // The impulse pushes the colliding vertex's body away from the other: orient it on body_a.
+    const Vec3 normal = contact.body == a ? Vec3(impulses_[c].normal) : Vec3(-impulses_[c].normal);
+    auto it = std::find_if(pair_held_.begin(), pair_held_.end(),
+                           [&](const PairHeldFraction& p) { return p.body_a == a && p.body_b == b; });
+    if (it == pair_held_.end()) {
+      pair_held_.push_back({a, b, normal, pair_fraction});
+    } else {
+      it->normal += normal;
+    }
+  }
+  for (PairHeldFraction& p : pair_held_) {
+    const double length = p.normal.norm();
+    if (!(length > 0.0)) continue;
+    const double omega = contact_mode_omega(*bodies[static_cast<size_t>(p.body_a)],
+                                            *bodies[static_cast<size_t>(p.body_b)], p.normal / length);
+    p.fraction = std::min(pair_fraction, held_fraction_for_contact_mode(omega * dt));
+  }
+}
+
+double ContactSurfaceResponse::pair_held_fraction(int p, int q) const {
+  const int a = std::min(p, q), b = std::max(p, q);
+  for (const PairHeldFraction& pair : pair_held_) {
+    if (pair.body_a == a && pair.body_b == b) return pair.fraction;
+  }
+  return 1.0;  // not reached: every held movable pair was derived
+}
+
 void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double dt, double fraction,
-                                         double deformable_pair_fraction, bool record_directions) {
+                                         double deformable_pair_fraction, bool derived_pairs,
+                                         bool record_directions) {
   // Session 9 (docs/contact-surface.md "Resting churn, session 9"): between two movable deformable
   // bodies the one-step-late held force drives their contact mode (the resting churn); against an
   // immovable partner (kinematic, sleeping) the whole reaction stays held.
@@ -406,6 +448,9 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
   held_normal_force_.clear();
   held_direction_.clear();
   // Internal force at each region vertex at the contact surface (the last local evaluation).
+  // Session 10: with the derived strength each movable deformable pair holds at most the part of
+  // its contact force that a trapezoidal step of its contact mode would (derived_held_fraction.h).
+  if (derived_pairs) derive_pair_held_fractions(bodies, dt, pair_fraction);
   region_force_.assign(region_.vertices().size(), Vec3::Zero());
   for (const auto& g : region_.groups()) {
     for (size_t i = 0; i < g.vertices.size(); ++i) region_force_[static_cast<size_t>(g.region_indices[i])] = g.forces[i];
@@ -415,7 +460,9 @@ void ContactSurfaceResponse::hold_forces(std::span<Body* const> bodies, double d
     const VertexContact& contact = all_contacts_[c];
     // Hold at most the elastic force with which the dent pushes back (the sustained part of the
     // contact force), not the inertial part of an impact: holding that overshoots.
-    const double held_fraction = movable(contact.body) && movable(contact.penetrated_body) ? pair_fraction : fraction;
+    const bool pair = movable(contact.body) && movable(contact.penetrated_body);
+    const double held_fraction =
+        !pair ? fraction : (derived_pairs ? pair_held_fraction(contact.body, contact.penetrated_body) : pair_fraction);
     double magnitude = held_fraction * impulses_[c].normal_magnitude / dt;
     if (c < lingering_begin_) {
       const Vec3 normal = impulses_[c].normal / impulses_[c].normal_magnitude;
@@ -624,7 +671,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   if (settings.finishing_projection && friction_moved) finishing_projection(bodies, contacts, region_, 32);
   if (warm_start) {
     hold_forces(bodies, dt, settings.held_force_fraction, settings.deformable_pair_held_force_fraction,
-                settings.held_force_release);
+                settings.deformable_pair_held_force_derived, settings.held_force_release);
     if (settings.held_force_release) release_separating_pairs(bodies, dt);
   } else {
     held_.clear();

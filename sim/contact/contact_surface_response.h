@@ -63,15 +63,28 @@ class ContactSurfaceResponse final : public ContactResponse {
   void gather_contacts(std::span<Body* const> bodies, std::span<const VertexContact> contacts, double dt,
                        bool warm_start, bool release_distant);
   /// Stores `fraction` of this step's normal contact forces for the next integration, and
-  /// min(fraction, `deformable_pair_fraction`) of those between two movable deformable bodies; with
+  /// min(fraction, `deformable_pair_fraction`) of those between two movable deformable bodies (with
+  /// `derived_pairs` also at most the pair's derived_held_fraction.h strength); with
   /// `record_directions` (the release needs them) also each held force's unit direction.
   void hold_forces(std::span<Body* const> bodies, double dt, double fraction, double deformable_pair_fraction,
-                   bool record_directions);
+                   bool derived_pairs, bool record_directions);
+  /// ContactSettings::deformable_pair_held_force_derived: each movable deformable pair's held
+  /// fraction from its contact mode, written to pair_held_ (the pair's normal from this step's impulses).
+  void derive_pair_held_fractions(std::span<Body* const> bodies, double dt, double pair_fraction);
+  /// The held fraction derive_pair_held_fractions found for the pair of bodies p and q.
+  double pair_held_fraction(int p, int q) const;
   /// ContactSettings::held_force_release: per body pair whose centres of mass separate along its
   /// held force, scales that pair's held forces down by the impulse the separation carries.
   void release_separating_pairs(std::span<Body* const> bodies, double dt);
 
   std::vector<HeldForces> held_;
+  /// One movable deformable pair's derived held fraction (session 10); few pairs per step.
+  struct PairHeldFraction {
+    int body_a = -1, body_b = -1;   ///< body slots, body_a < body_b
+    Vec3 normal = Vec3::Zero();     ///< sum of the pair's normal impulses on body_a's side (N s)
+    double fraction = 1.0;          ///< held fraction of the pair's contacts
+  };
+  std::vector<PairHeldFraction> pair_held_;
   std::vector<VertexContact> held_contacts_;  ///< last step's contacts with a normal force
   std::vector<double> held_normal_force_;     ///< N, per held contact
   /// The held state before the current step (save_held_forces), for an undone step.

@@ -1,6 +1,7 @@
 // The scene's "contact" object reads held_force_fraction (docs/scene-format.md): a value in [0, 1]
 // reaches the World's ContactSettings; outside, or of the wrong type, the error names its path.
-// Likewise deformable_pair_held_force_fraction (session 9), and the boolean limit_friction_move.
+// Likewise deformable_pair_held_force_fraction (session 9; session 10: or "derived"), and the boolean
+// limit_friction_move.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -67,6 +68,27 @@ TEST(SceneFormat, ContactDeformablePairHeldForceFractionReachesTheWorld) {
   EXPECT_EQ(parse_scene(probe_coarse_json(), "probe_coarse.json", ".").world.contact.deformable_pair_held_force_fraction,
             1.0);
   expect_fraction_key("deformable_pair_held_force_fraction", 0.8, &ContactSettings::deformable_pair_held_force_fraction);
+}
+
+// Session 10: the string "derived" turns on ContactSettings::deformable_pair_held_force_derived (off
+// by default, and off for a number); another string names the path.
+TEST(SceneFormat, ContactDeformablePairHeldForceDerivedReachesTheWorld) {
+  nlohmann::json j = probe_coarse_json();
+  EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.deformable_pair_held_force_derived);
+  j["contact"]["deformable_pair_held_force_fraction"] = 0.8;
+  EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.deformable_pair_held_force_derived);
+  j["contact"]["deformable_pair_held_force_fraction"] = "derived";
+  const Scene scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_TRUE(scene.world.contact.deformable_pair_held_force_derived);
+  EXPECT_EQ(scene.world.contact.deformable_pair_held_force_fraction, 1.0);
+  EXPECT_TRUE(instantiate_scene(scene).world->settings().contact.deformable_pair_held_force_derived);
+  j["contact"]["deformable_pair_held_force_fraction"] = "derive";
+  try {
+    parse_scene(j, "probe_coarse.json", ".");
+    ADD_FAILURE() << "no error for \"derive\"";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/contact/deformable_pair_held_force_fraction"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -19,10 +19,11 @@ constexpr double kG = 9.81;  // m/s^2, WorldSettings' default gravity
 // One free block with friction on a kinematic floor, 300 steps at 1 ms: the floor is not a
 // deformable partner, so the setting changes nothing, bit for bit.
 TEST(ContactDeformablePairHeld, KinematicPartnersKeepTheFullHeldForceBitForBit) {
-  auto run = [](double pair_fraction) {
+  auto run = [](double pair_fraction, bool derived = false) {
     World world;
     world.settings().contact.finishing_projection = true;
     world.settings().contact.deformable_pair_held_force_fraction = pair_fraction;
+    world.settings().contact.deformable_pair_held_force_derived = derived;
     const std::vector<BodyId> ids = add_block_stack(world, 1, 0.5);
     for (int i = 0; i < 300; ++i) EXPECT_EQ(world.step(1e-3).fault, StepFault::none);
     const Body& b = world.body(ids.front());
@@ -30,18 +31,22 @@ TEST(ContactDeformablePairHeld, KinematicPartnersKeepTheFullHeldForceBitForBit) 
     state.insert(state.end(), b.velocities.begin(), b.velocities.end());
     return state;
   };
-  const std::vector<Vec3> full = run(1.0), reduced = run(0.8);
+  const std::vector<Vec3> full = run(1.0), reduced = run(0.8), derived = run(1.0, true);
   ASSERT_EQ(full.size(), reduced.size());
+  ASSERT_EQ(full.size(), derived.size());
   for (size_t i = 0; i < full.size(); ++i) EXPECT_EQ(full[i], reduced[i]) << i;
+  for (size_t i = 0; i < full.size(); ++i) EXPECT_EQ(full[i], derived[i]) << i;  // session 10's "derived"
 }
 
 // Two free blocks stacked (mu 0.5, dt 0.5 ms, where both settings rest): the mean contact force the
 // lower block reports from the upper one over the last 100 steps is the upper block's weight
 // (within 2%), and equal and opposite on the pair.
-TEST(ContactDeformablePairHeld, StackedBlockPressesWithItsWeight) {
+// Session 10: the same with the derived strength (0.78 for these blocks at 0.5 ms: omega dt 0.53).
+void expect_stacked_block_presses_with_its_weight(double pair_fraction, bool derived) {
   World world;
   world.settings().contact.finishing_projection = true;
-  world.settings().contact.deformable_pair_held_force_fraction = 0.8;
+  world.settings().contact.deformable_pair_held_force_fraction = pair_fraction;
+  world.settings().contact.deformable_pair_held_force_derived = derived;
   const std::vector<BodyId> ids = add_block_stack(world, 2, 0.5);
   const double dt = 5e-4;
   for (int i = 0; i < 600; ++i) EXPECT_EQ(world.step(dt).fault, StepFault::none);
@@ -56,6 +61,12 @@ TEST(ContactDeformablePairHeld, StackedBlockPressesWithItsWeight) {
   }
   const double weight = world.body(ids[1]).total_mass() * kG;
   EXPECT_NEAR(on_lower.z(), -weight, 0.02 * weight);
+}
+
+TEST(ContactDeformablePairHeld, StackedBlockPressesWithItsWeight) { expect_stacked_block_presses_with_its_weight(0.8, false); }
+
+TEST(ContactDeformablePairHeld, StackedBlockPressesWithItsWeightDerived) {
+  expect_stacked_block_presses_with_its_weight(1.0, true);
 }
 
 }  // namespace
