@@ -125,11 +125,11 @@ struct ContactSettings {
   /// h^2 (1/m_a + sum w_k^2 / m_bk) of session 7, bit for bit.
   bool coupled_block_preconditioner = true;
   /// Beyond the paper, opt-in (docs/stability.md, M6a): stage 5's friction moves dt dv of a body
-  /// are scaled so their deforming part (the moves minus the moved set's rigid fit) stores at most
-  /// the kinetic energy sum m |dv|^2 / 2 of its friction impulses. Off by default: on, it passes
-  /// both incline tests but fails Stability.SurfaceMilligramBodyWithASliver (30.6x) and
-  /// ImplicitContactCorrection.DropEnergyRatioAcrossCfl (7.03 vs 1.6) and changes the probe from
-  /// step 1388. false: every friction move is dt dv (session 6's stage 5, bit for bit).
+  /// are scaled so their deforming part (the moves minus the moved set's rigid fit) adds at most
+  /// the kinetic energy sum m |dv|^2 / 2 of its friction impulses to the strain of the step's own
+  /// displacement (session 10: a stuck contact's return is free; the probe is unchanged with it
+  /// on). Off by default: the long matrix gains nothing with it (docs/stability.md "Session 10").
+  /// false: every friction move is dt dv (session 6's stage 5, bit for bit).
   bool limit_friction_move = false;
   /// Beyond the paper, opt-in (session 8, docs/stability.md M7): between two movable sides, a
   /// friction impulse sees a vertex of a body with fixed vertices that is stiff within the step
