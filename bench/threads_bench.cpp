@@ -13,15 +13,17 @@
 //   region_us     mean wall time of one for_each_chunk, work_us its chunks' summed run time,
 //   nested, nested_us_per_step  regions inside another region (the model's loops inside World's
 //                 per-body loop) per step, and their wall time per step (the step's parallel part).
-// Run: build/bench/threads_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// PLIANT_TRACE_REGIONS=1 makes ProbeStepRegions print one line per kind of region. On a loaded
+// machine the second thread rarely gets a core; `chrt -f 10` (SCHED_FIFO, a few seconds) stands in
+// for an idle one (docs/threads.md). Run from build/bench (the probe scene's path is relative):
+//   chrt -f 10 ./threads_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
-#include <omp.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <cstdio>
 #include <map>
 #include <memory>
 #include <mutex>
