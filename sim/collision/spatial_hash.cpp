@@ -88,15 +88,12 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   return true;
 }
 
-std::uint64_t SpatialHash::cell_key(int i, int j, int k) {
-  // Teschner et al. 2003, eq. (1); conversion of a negative int to uint64 is well defined (mod 2^64).
-  return (static_cast<std::uint64_t>(static_cast<std::int64_t>(i)) * 73856093ull) ^
-         (static_cast<std::uint64_t>(static_cast<std::int64_t>(j)) * 19349663ull) ^
-         (static_cast<std::uint64_t>(static_cast<std::int64_t>(k)) * 83492791ull);
-}
-
 std::uint64_t SpatialHash::hash_cell(int i, int j, int k, std::uint64_t table_size) {
-  return cell_key(i, j, k) % table_size;
+  // Teschner et al. 2003, eq. (1); conversion of a negative int to uint64 is well defined (mod 2^64).
+  const std::uint64_t h = (static_cast<std::uint64_t>(static_cast<std::int64_t>(i)) * 73856093ull) ^
+                          (static_cast<std::uint64_t>(static_cast<std::int64_t>(j)) * 19349663ull) ^
+                          (static_cast<std::uint64_t>(static_cast<std::int64_t>(k)) * 83492791ull);
+  return h % table_size;
 }
 
 std::uint64_t SpatialHash::next_prime(std::uint64_t n) {
@@ -161,13 +158,12 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       next_prime(static_cast<std::uint64_t>(options_.table_size_factor * static_cast<double>(vertex_total)) + 1);
   if (table_size_ < wanted) {
     table_size_ = wanted;
-    bucket_of_ = PrimeModulus(wanted);
-    buckets_.assign(wanted, Bucket{0u, -1, -1, -1});
+    buckets_.assign(wanted, Bucket{0u, -1});
     stamp_ = 0;
   }
   const std::uint64_t n = table_size_;
   if (++stamp_ == 0) {  // wrapped around after 2^32 steps: clear once
-    std::fill(buckets_.begin(), buckets_.end(), Bucket{0u, -1, -1, -1});
+    std::fill(buckets_.begin(), buckets_.end(), Bucket{0u, -1});
     stamp_ = 1;
   }
   stats_.hashed_vertices = vertex_total;
@@ -213,7 +209,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       bounds.extend(x);
       HashedVertex hv{x, {cell_coordinate(x.x(), inv_l), cell_coordinate(x.y(), inv_l),
                           cell_coordinate(x.z(), inv_l)}, a, v, -1, -1};
-      const auto h = static_cast<size_t>(bucket_of_.of(cell_key(hv.cell[0], hv.cell[1], hv.cell[2])));
+      const auto h = static_cast<size_t>(hash_cell(hv.cell[0], hv.cell[1], hv.cell[2], n));
       Bucket& bucket = buckets_[h];
       if (bucket.stamp != stamp_) {
         bucket.stamp = stamp_;
@@ -226,8 +222,6 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         hv.next_body = head.body == a ? head.next_body : bucket.head;
       }
       bucket.head = static_cast<int>(hashed_.size());
-      bucket.head_body = a;
-      bucket.head_run_end = hv.next_body;
       hashed_.push_back(hv);
     }
   }
@@ -297,15 +291,10 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         for (int j = j0; j <= j1; ++j) {
           for (int k = k0; k <= k1; ++k) {
             ++stats_.cells_visited;
-            const auto h = static_cast<size_t>(bucket_of_.of(cell_key(i, j, k)));
+            const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
             const Bucket& bucket = buckets_[h];
             if (bucket.stamp != stamp_) continue;
-            int e = bucket.head;
-            if (!partner_[static_cast<size_t>(bucket.head_body)]) {  // the leading run, unread
-              ++stats_.entries_scanned;
-              e = bucket.head_run_end;
-            }
-            while (e >= 0) {
+            for (int e = bucket.head; e >= 0;) {
               const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
               ++stats_.entries_scanned;
               // A body that may not touch this one (e.g. the tet's own body): skip its whole run.

@@ -30,7 +30,6 @@
 #include <vector>
 
 #include "sim/collision/contact_types.h"
-#include "sim/collision/prime_modulus.h"
 #include "sim/collision/rigid_tet_grid.h"
 
 namespace pliant {
@@ -75,8 +74,6 @@ class SpatialHash {
 
   /// Teschner's hash of cell (i, j, k) into [0, table_size), products in unsigned 64-bit arithmetic.
   static std::uint64_t hash_cell(int i, int j, int k, std::uint64_t table_size);
-  /// Teschner's cell key before the reduction: hash_cell = cell_key mod table_size.
-  static std::uint64_t cell_key(int i, int j, int k);
   /// Smallest prime >= n (n >= 2).
   static std::uint64_t next_prime(std::uint64_t n);
 
@@ -95,15 +92,10 @@ class SpatialHash {
   SpatialHashStats stats_;
   std::uint32_t stamp_ = 0;
   std::uint64_t table_size_ = 0;  ///< current prime table size; grows, never shrinks
-  PrimeModulus bucket_of_;        ///< key mod table_size_ without a division (same remainders)
-  /// One bucket: the step stamp of its last insert, the head of its list, and the head's body and
-  /// run exit (HashedVertex::next_body), so pass 2 skips a bucket's leading run of a body that may
-  /// not touch the tet (in a pile: the tet's own body) without reading the entry (session 10).
+  /// One bucket: the step stamp of its last insert and the head of its list (one cache line read).
   struct Bucket {
     std::uint32_t stamp;
     int head;
-    int head_body;
-    int head_run_end;
   };
   std::vector<Bucket> buckets_;
   std::vector<HashedVertex> hashed_;
