@@ -2,13 +2,17 @@
 // fruit-dish and fruit-fruit pairs, so a body's pair list holds many entries; session 10 finds a
 // pair through its lower body's list instead of a scan over all pairs). A second method: each
 // kinematic body's reaction (accumulated contact by contact, apart from the pairs) must be the sum
-// of the forces its pairs carry; each pair appears once, sorted, with equal and opposite forces.
+// of the forces its pairs carry, and each pair's contact count the number of the step's contacts
+// between its bodies (counted here from World::contacts); each pair appears once, sorted, with
+// equal and opposite forces.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <string>
+#include <utility>
 
 #include "interaction/scene/scene.h"
 #include "interaction/scene/scene_runner.h"
@@ -36,6 +40,18 @@ TEST(ContactPairForces, EachPairOnceAndTheDishReactionsAreTheSumsOfTheirPairs) {
       // The same impulses added to one side and subtracted from the other, in the same order.
       ASSERT_EQ(p.force_on_a, Vec3(-p.force_on_b)) << "step " << step;
     }
+    // Each pair counts the step's contacts between its two bodies (World::contacts, counted here).
+    std::map<std::pair<int, int>, int> contacts_of_pair;
+    for (const VertexContact& c : run.world().contacts()) {
+      ++contacts_of_pair[{std::min(c.body, c.penetrated_body), std::max(c.body, c.penetrated_body)}];
+    }
+    for (const PairContactForce& p : pairs) {
+      const auto it = contacts_of_pair.find({p.body_a, p.body_b});
+      ASSERT_EQ(p.contacts, it == contacts_of_pair.end() ? 0 : it->second)
+          << "step " << step << " pair " << p.body_a << "-" << p.body_b;
+      if (it != contacts_of_pair.end()) contacts_of_pair.erase(it);
+    }
+    ASSERT_TRUE(contacts_of_pair.empty()) << "step " << step << ": a pair with contacts has no entry";
     for (const KinematicReaction& r : report.reactions) {
       Vec3 sum = Vec3::Zero();
       double magnitude = 0.0;
