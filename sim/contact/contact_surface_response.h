@@ -103,6 +103,8 @@ class ContactSurfaceResponse final : public ContactResponse {
   DeformationRegion region_;
   std::vector<SearchSamples> samples_;              ///< stage 3 result, reused across steps
   std::vector<PairContactForce> pairs_;             ///< this step's per-pair forces (scratch)
+  /// Scratch: per lower body slot of a pair, (higher body slot, index into pairs_) of this step's pairs.
+  std::vector<std::vector<std::pair<int, int>>> pair_slots_;
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
   std::vector<RigidModes> rigid_modes_;   ///< stage 5 scratch: rigid modes per body slot
   FrictionMoveLedger friction_moves_;     ///< stage 5 scratch: friction moves per body slot (M6a)
