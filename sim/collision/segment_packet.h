@@ -56,10 +56,4 @@ bool segment_packets_available();
 void segment_packet_leaf(SegmentPacket& packet, const PreparedTriangle* triangles, const Aabb* boxes,
                          const int* triangle_index, int n);
 
-/// segment_packet_leaf over triangles [runs[2r], runs[2r + 1]) of each run r < run_count in turn
-/// (arrays indexed as triangles, boxes and triangle_index): one call for all the leaves a fan
-/// chunk meets, whose triangles are consecutive runs in leaf order (session 10).
-void segment_packet_runs(SegmentPacket& packet, const PreparedTriangle* triangles, const Aabb* boxes,
-                         const int* triangle_index, const int* runs, int run_count);
-
 }  // namespace pliant

@@ -106,7 +106,6 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   leaf_epoch_.assign(nodes_.size(), 0);
   quad_.build(nodes_);
   fan_leaves_.resize(static_cast<size_t>(quad_.leaf_count()));
-  fan_runs_.resize(static_cast<size_t>(2 * quad_.leaf_count()));
   full_refit();
 }
 
@@ -363,23 +362,14 @@ void SurfaceBvh::fan_chunk_packet(const Vec3& end, const Aabb& node_query, std::
   // Every triangle of every leaf whose box meets the fan's box, in the scalar loop's order (the
   // 4-wide tree finds the binary traversal's leaves in its order); a triangle that meets no
   // segment's box is rejected by its lanes' box masks.
-  // Leaves of consecutive nodes hold consecutive triangles (depth-first order): they are merged
-  // into runs, so the kernel is called once per chunk (fan_runs_ holds [begin, end) pairs).
   const int leaves = quad_.leaves_meeting(node_query, fan_leaves_.data());
-  int runs = 0;
   for (int l = 0; l < leaves; ++l) {
     const int n = fan_leaves_[static_cast<size_t>(l)];
     ensure_leaf(n);
     const Node& node = nodes_[static_cast<size_t>(n)];
-    if (runs > 0 && fan_runs_[static_cast<size_t>(2 * runs - 1)] == node.first) {
-      fan_runs_[static_cast<size_t>(2 * runs - 1)] += node.count;
-    } else {
-      fan_runs_[static_cast<size_t>(2 * runs)] = node.first;
-      fan_runs_[static_cast<size_t>(2 * runs + 1)] = node.first + node.count;
-      ++runs;
-    }
+    const auto first = static_cast<size_t>(node.first);
+    segment_packet_leaf(packet, &prepared_[first], &triangle_boxes_[first], &order_[first], node.count);
   }
-  segment_packet_runs(packet, prepared_.data(), triangle_boxes_.data(), order_.data(), fan_runs_.data(), runs);
   for (int i = 0; i < m; ++i) {
     const auto k = static_cast<size_t>(i);
     const int t = static_cast<int>(packet.best_triangle[i]);

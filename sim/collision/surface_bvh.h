@@ -164,7 +164,6 @@ class SurfaceBvh {
   bool segment_packets_ = true;                     ///< fan queries may use the AVX kernel
   QuadBoxTree quad_;                                ///< 4-wide view of nodes_ for the packet fan query
   mutable std::vector<int> fan_leaves_;             ///< leaves a fan chunk meets (quad_.leaf_count())
-  mutable std::vector<int> fan_runs_;               ///< their triangles as [begin, end) runs
 };
 
 }  // namespace pliant
