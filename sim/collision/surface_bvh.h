@@ -22,7 +22,8 @@
 // threads.
 //
 // The fan query (all edges ending at one border point) visits every node whose box meets the fan's
-// box instead of ordering by entry parameter: it keeps the same minimum per edge.
+// box instead of ordering by entry parameter: it keeps the same minimum per edge. With AVX it finds
+// those leaves through a 4-wide view of the tree (quad_box_tree.h): the same leaves in the same order.
 #pragma once
 
 #include <cstdint>
