@@ -100,7 +100,7 @@ PLIANT_AVX void packet_leaf(SegmentPacket& s, const PreparedTriangle* triangles,
                                            _mm256_cmp_pd(_mm256_load_pd(&s.box_min[1][i]), max_y, _CMP_LE_OS)));
       ok = _mm256_and_pd(ok, _mm256_and_pd(_mm256_cmp_pd(min_z, _mm256_load_pd(&s.box_max[2][i]), _CMP_LE_OS),
                                            _mm256_cmp_pd(_mm256_load_pd(&s.box_min[2][i]), max_z, _CMP_LE_OS)));
-      if (_mm256_movemask_pd(ok) == 0) continue;  // EXPERIMENT
+      if (_mm256_movemask_pd(ok) == 0) continue;  // no lane's box meets: skip Moller-Trumbore
       // Moller-Trumbore as ray_triangle_intersection (prepared), every test a mask.
       const __m256d dx = _mm256_load_pd(&s.dir[0][i]), dy = _mm256_load_pd(&s.dir[1][i]),
                     dz = _mm256_load_pd(&s.dir[2][i]);

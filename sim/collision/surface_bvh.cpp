@@ -96,6 +96,7 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   triangle_boxes_.resize(static_cast<size_t>(n));
   prepared_.resize(static_cast<size_t>(n));
   if (n == 0) {
+    quad_.build(nodes_);
     remember_fitted_positions();
     slack_ = 0.0;
     return;
@@ -103,6 +104,8 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   nodes_.reserve(static_cast<size_t>(2 * (n / kLeafSize + 1)));
   build_node(0, n, 0);
   leaf_epoch_.assign(nodes_.size(), 0);
+  quad_.build(nodes_);
+  fan_leaves_.resize(static_cast<size_t>(quad_.leaf_count()));
   full_refit();
 }
 
@@ -150,6 +153,7 @@ void SurfaceBvh::full_refit() {
     }
     node.box = box;
   }
+  quad_.refresh_boxes(nodes_);
   remember_fitted_positions();
   slack_ = 0.0;
 }
@@ -340,17 +344,32 @@ void SurfaceBvh::visit_leaves_meeting(const Aabb& query, Leaf&& leaf) const {
   }
 }
 
+void SurfaceBvh::leaves_meeting(const Aabb& query, bool quad, std::vector<int>& out) const {
+  out.clear();
+  if (quad) {
+    out.resize(static_cast<size_t>(quad_.leaf_count()));
+    out.resize(static_cast<size_t>(quad_.leaves_meeting(query, out.data())));
+    return;
+  }
+  visit_leaves_meeting(query, [&](const Node& node) { out.push_back(static_cast<int>(&node - nodes_.data())); });
+}
+
 void SurfaceBvh::fan_chunk_packet(const Vec3& end, const Aabb& node_query, std::span<const Vec3> origins,
                                   std::span<SurfacePoint> hits, std::span<char> found) const {
   const int m = static_cast<int>(origins.size());
   SegmentPacket packet;
   packet.load(end, origins.data(), m);
-  // Every triangle of every leaf whose box meets the fan's box, in the scalar loop's order; a
-  // triangle that meets no segment's box is rejected by its lanes' box masks.
-  visit_leaves_meeting(node_query, [&](const Node& node) {
+  // Every triangle of every leaf whose box meets the fan's box, in the scalar loop's order (the
+  // 4-wide tree finds the binary traversal's leaves in its order); a triangle that meets no
+  // segment's box is rejected by its lanes' box masks.
+  const int leaves = quad_.leaves_meeting(node_query, fan_leaves_.data());
+  for (int l = 0; l < leaves; ++l) {
+    const int n = fan_leaves_[static_cast<size_t>(l)];
+    ensure_leaf(n);
+    const Node& node = nodes_[static_cast<size_t>(n)];
     const auto first = static_cast<size_t>(node.first);
     segment_packet_leaf(packet, &prepared_[first], &triangle_boxes_[first], &order_[first], node.count);
-  });
+  }
   for (int i = 0; i < m; ++i) {
     const auto k = static_cast<size_t>(i);
     const int t = static_cast<int>(packet.best_triangle[i]);

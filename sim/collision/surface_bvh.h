@@ -22,7 +22,8 @@
 // threads.
 //
 // The fan query (all edges ending at one border point) visits every node whose box meets the fan's
-// box instead of ordering by entry parameter: it keeps the same minimum per edge.
+// box instead of ordering by entry parameter: it keeps the same minimum per edge. With AVX it finds
+// those leaves through a 4-wide view of the tree (quad_box_tree.h): the same leaves in the same order.
 #pragma once
 
 #include <cstdint>
@@ -31,6 +32,7 @@
 #include <vector>
 
 #include "sim/math_types.h"
+#include "sim/collision/quad_box_tree.h"
 #include "sim/collision/triangle_queries.h"
 #include "sim/mesh/tet_mesh.h"
 
@@ -91,6 +93,11 @@ class SurfaceBvh {
   /// Fan queries by the AVX segment-packet kernel where the CPU has it (default; the same results
   /// bit for bit, segment_packet.h) or always by the scalar loop (false; for tests and benchmarks).
   void set_segment_packets(bool on) { segment_packets_ = on; }
+
+  /// Leaves (node indices) whose box and every ancestor's box meet `query`, in depth-first order,
+  /// as the fan query finds them: by the binary tree (quad = false) or its 4-wide view (true;
+  /// quad_box_tree.h). For tests: both lists must be equal.
+  void leaves_meeting(const Aabb& query, bool quad, std::vector<int>& out) const;
 
   /// Closest point of the surface to p; false only if no triangle is eligible. Triangles containing
   /// vertex `exclude` (-1: none) are skipped.
@@ -156,6 +163,8 @@ class SurfaceBvh {
   mutable std::vector<PreparedTriangle> prepared_;  ///< corner and edges (triangle_queries.h)
   mutable std::vector<std::uint64_t> leaf_epoch_;   ///< per node
   bool segment_packets_ = true;                     ///< fan queries may use the AVX kernel
+  QuadBoxTree quad_;                                ///< 4-wide view of nodes_ for the packet fan query
+  mutable std::vector<int> fan_leaves_;             ///< leaves a fan chunk meets (quad_.leaf_count())
 };
 
 }  // namespace pliant
