@@ -12,8 +12,7 @@ double held_fraction_for_contact_mode(double omega_dt) {
 }
 
 double bounce_stiffness_along(const Body& body, const Vec3& normal) {
-  double volume = 0.0;
-  for (double v : body.mesh->rest_volumes()) volume += v;
+  const double volume = body.mesh->total_rest_volume();
   double low = std::numeric_limits<double>::infinity(), high = -low;
   for (const Vec3& x : body.positions) {
     const double s = x.dot(normal);
