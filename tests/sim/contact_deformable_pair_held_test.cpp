@@ -41,7 +41,7 @@ TEST(ContactDeformablePairHeld, KinematicPartnersKeepTheFullHeldForceBitForBit) 
 // Two free blocks stacked (mu 0.5, dt 0.5 ms, where both settings rest): the mean contact force the
 // lower block reports from the upper one over the last 100 steps is the upper block's weight
 // (within 2%), and equal and opposite on the pair.
-// Session 10: the same with the derived strength (0.78 for these blocks at 0.5 ms: omega dt 0.53).
+// Session 10: the same with the derived strength (0.93 for these blocks at 0.5 ms: omega dt 0.53).
 void expect_stacked_block_presses_with_its_weight(double pair_fraction, bool derived) {
   World world;
   world.settings().contact.finishing_projection = true;
