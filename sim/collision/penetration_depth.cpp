@@ -222,14 +222,23 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     vertex_stamp_[v] = group_stamp_;
     vertex_slot_[v] = k;
   }
-  auto slot_of = [&](int v) {
-    return vertex_stamp_[static_cast<size_t>(v)] == group_stamp_ ? vertex_slot_[static_cast<size_t>(v)] : -1;
+  // Whether a neighbour collides is the unpredictable branch of this function (session 11): the
+  // loops below classify neighbours by selects and counters, not by branches. `colliding_vertex`
+  // reads the stamp alone; `slot_or_dummy` maps a non-colliding vertex to the dummy entry `count`
+  // of layer_, whose value never passes a layer test (INT_MAX).
+  auto colliding_vertex = [&](int v) { return vertex_stamp_[static_cast<size_t>(v)] == group_stamp_; };
+  auto slot_or_dummy = [&](int v) {
+    // A mask, not `?:`: GCC 12 compiles the conditional to a branch here.
+    const int in = -static_cast<int>(colliding_vertex(v));
+    return (vertex_slot_[static_cast<size_t>(v)] & in) | (count & ~in);
   };
   auto result = [&](int k) -> VertexContact& {
     return results_[static_cast<size_t>(group[static_cast<size_t>(k)])];
   };
 
-  layer_.assign(static_cast<size_t>(count), -1);
+  constexpr int kNoLayer = std::numeric_limits<int>::max();  // the dummy entry's layer
+  layer_.assign(static_cast<size_t>(count) + 1, -1);
+  layer_[static_cast<size_t>(count)] = kNoLayer;
   hint_.assign(static_cast<size_t>(count), -1);
   frontier_.clear();
 
@@ -244,26 +253,39 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     r.tet = c.tet;
     const Vec3& p = x[static_cast<size_t>(c.vertex)];
     double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
-    Vec3 direction_sum = Vec3::Zero(), nearest_normal = Vec3::Zero();
-    int nearest_triangle = -1;
+    Vec3 direction_sum = Vec3::Zero();
     // Outgoing edges to non-colliding neighbours q. Keep the intersection nearest q: the first
     // hit of the segment from q towards p (t in [0, 1]); one traversal for all of p's edges.
-    fan_origins_.clear();
-    fan_exclude_.clear();
-    for (int q : mesh.vertex_neighbors(c.vertex)) {
-      if (slot_of(q) >= 0) continue;
-      fan_origins_.push_back(x[static_cast<size_t>(q)]);
-      fan_exclude_.push_back(self ? q : -1);
+    // Every neighbour is written; the count advances only past non-colliding ones (same order).
+    // The fan buffers only grow (edges: the entries in use).
+    const std::span<const int> neighbors = mesh.vertex_neighbors(c.vertex);
+    if (fan_origins_.size() < neighbors.size()) {
+      fan_origins_.resize(neighbors.size());
+      fan_exclude_.resize(neighbors.size());
+      fan_hits_.resize(neighbors.size());
+      fan_found_.resize(neighbors.size());
     }
-    stats_.edge_intersections += static_cast<long long>(fan_origins_.size());
-    fan_hits_.resize(fan_origins_.size());
-    fan_found_.resize(fan_origins_.size());
+    size_t edges = 0;
+    for (int q : neighbors) {
+      fan_origins_[edges] = x[static_cast<size_t>(q)];
+      fan_exclude_[edges] = self ? q : -1;
+      edges += static_cast<size_t>(!colliding_vertex(q));
+    }
+    stats_.edge_intersections += static_cast<long long>(edges);
     if (walk_edges) {
+      // walk_fan reads the whole buffers.
+      fan_origins_.resize(edges);
+      fan_hits_.resize(edges);
+      fan_found_.resize(edges);
       walk_fan(surface, c, p);
     } else {
-      surface.bvh.first_segment_hits(p, self ? c.vertex : -1, fan_origins_, fan_exclude_, fan_hits_, fan_found_);
+      surface.bvh.first_segment_hits(p, self ? c.vertex : -1, std::span<const Vec3>(fan_origins_.data(), edges),
+                                     std::span<const int>(fan_exclude_.data(), edges),
+                                     std::span<SurfacePoint>(fan_hits_.data(), edges),
+                                     std::span<char>(fan_found_.data(), edges));
     }
-    for (size_t e = 0; e < fan_origins_.size(); ++e) {
+    int nearest_edge = -1;  // the nearest hit, by selects; its normal is recomputed if needed
+    for (size_t e = 0; e < edges; ++e) {
       if (!fan_found_[e]) continue;
       const SurfacePoint& best = fan_hits_[e];
       const Vec3 normal = smoothed_normal(surface, best);
@@ -272,19 +294,20 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       depth_sum += w * (best.point - p).dot(normal);
       direction_sum += w * normal;
       weight_sum += w;
-      if (d2 < nearest_d2) {
-        nearest_d2 = d2;
-        nearest_normal = normal;
-        nearest_triangle = best.triangle;
-      }
+      const bool nearer = d2 < nearest_d2;
+      nearest_edge = nearer ? static_cast<int>(e) : nearest_edge;
+      nearest_d2 = nearer ? d2 : nearest_d2;
     }
     if (weight_sum == 0.0) continue;  // all edges missed: an inner point after all
+    const int nearest_triangle = nearest_edge >= 0 ? fan_hits_[static_cast<size_t>(nearest_edge)].triangle : -1;
     r.penetration_depth = depth_sum / weight_sum;
     const double len = direction_sum.norm();
     if (len > 1e-12 * weight_sum) {
       r.penetration_direction = direction_sum / len;
     } else {
-      r.penetration_direction = nearest_normal;  // normals cancel: the nearest hit's normal
+      // Normals cancel: the nearest hit's normal (the same value the sum used).
+      r.penetration_direction =
+          nearest_edge >= 0 ? smoothed_normal(surface, fan_hits_[static_cast<size_t>(nearest_edge)]) : Vec3::Zero();
       ++stats_.direction_fallbacks;
     }
     r.depth_source = DepthSource::border;
@@ -297,26 +320,33 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
 
   // Propagation inward, layer by layer; only earlier layers contribute (eq. (4) and (5)).
   for (int layer = 1; !frontier_.empty(); ++layer) {
-    next_.clear();
+    // Unprocessed colliding neighbours of the front join this layer: every neighbour is written
+    // to next_, the count advances only for those (a non-joining one marks the dummy entry).
+    size_t joined = 0;
     for (int k : frontier_) {
-      for (int q : mesh.vertex_neighbors(result(k).vertex)) {
-        const int s = slot_of(q);
-        if (s >= 0 && layer_[static_cast<size_t>(s)] < 0) {
-          layer_[static_cast<size_t>(s)] = layer;
-          next_.push_back(s);
-        }
+      const std::span<const int> neighbors = mesh.vertex_neighbors(result(k).vertex);
+      if (next_.size() < joined + neighbors.size()) next_.resize(joined + neighbors.size());
+      for (int q : neighbors) {
+        const int s = slot_or_dummy(q);
+        const bool joins = layer_[static_cast<size_t>(s)] < 0;
+        next_[joined] = s;
+        layer_[static_cast<size_t>(joins ? s : count)] = joins ? layer : kNoLayer;
+        joined += static_cast<size_t>(joins);
       }
     }
+    next_.resize(joined);
     std::sort(next_.begin(), next_.end());  // order does not change values; keeps traces readable
     for (int k : next_) {
       VertexContact& r = result(k);
       const Vec3& p = x[static_cast<size_t>(r.vertex)];
       double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
-      Vec3 direction_sum = Vec3::Zero(), nearest_direction = Vec3::Zero();
-      int nearest_hint = -1;
+      Vec3 direction_sum = Vec3::Zero();
+      int nearest = -1;  // slot of the nearest contributor, by selects
       for (int q : mesh.vertex_neighbors(r.vertex)) {
-        const int s = slot_of(q);
-        if (s < 0 || layer_[static_cast<size_t>(s)] < 0 || layer_[static_cast<size_t>(s)] >= layer) continue;
+        // Only neighbours processed in an earlier layer contribute (one test: the dummy never does).
+        const int s = slot_or_dummy(q);
+        const int l = layer_[static_cast<size_t>(s)];
+        if (l < 0 || l >= layer) continue;
         const VertexContact& nb = result(s);
         const Vec3 e = x[static_cast<size_t>(q)] - p;
         const double d2 = e.squaredNorm();
@@ -324,11 +354,9 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
         depth_sum += mu * (e.dot(nb.penetration_direction) + nb.penetration_depth);
         direction_sum += mu * nb.penetration_direction;
         weight_sum += mu;
-        if (d2 < nearest_d2) {
-          nearest_d2 = d2;
-          nearest_direction = nb.penetration_direction;
-          nearest_hint = hint_[static_cast<size_t>(s)];
-        }
+        const bool nearer = d2 < nearest_d2;
+        nearest = nearer ? s : nearest;
+        nearest_d2 = nearer ? d2 : nearest_d2;
       }
       assert(weight_sum > 0.0);
       r.penetration_depth = depth_sum / weight_sum;
@@ -336,12 +364,12 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       if (len > 1e-12 * weight_sum) {
         r.penetration_direction = direction_sum / len;
       } else {
-        r.penetration_direction = nearest_direction;
+        r.penetration_direction = nearest >= 0 ? result(nearest).penetration_direction : Vec3::Zero();
         ++stats_.direction_fallbacks;
       }
       r.depth_source = DepthSource::propagated;
       r.layer = layer;
-      hint_[static_cast<size_t>(k)] = nearest_hint;
+      hint_[static_cast<size_t>(k)] = nearest >= 0 ? hint_[static_cast<size_t>(nearest)] : -1;
       ++stats_.propagated_points;
       stats_.max_layer = std::max(stats_.max_layer, layer);
     }

@@ -3,8 +3,15 @@
 // bit for bit as the BVH path does; edges and rays by the walk give the same contacts to 1e-12
 // wherever no edge leaves and re-enters the penetrated body (counted by tet_walk_verify), with no
 // fallback; self-collision groups keep the BVH path exactly; a bent bar pressed into a block
-// re-crosses, and the verify counter sees it.
+// re-crosses, and the verify counter sees it. Last, the solver's border sums and layer propagation
+// (selects and counters since session 11) against Heidelberger's equations written out plainly,
+// one edge and one neighbour at a time: every depth, direction, layer and contact bit for bit.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <set>
 
 #include <cmath>
 #include <numbers>
@@ -12,6 +19,7 @@
 
 #include "sim/collision/penetration_depth.h"
 #include "sim/collision/spatial_hash.h"
+#include "sim/collision/surface_bvh.h"
 #include "sim/mesh/box_mesh.h"
 #include "support/folded_bar.h"
 
@@ -185,6 +193,136 @@ TEST(PenetrationDepthWalk, RecrossingEdgesAreCountedAndTakeTheCrossingNearestThe
     std::printf("vertex (%.2f %.2f %.2f): depth walk %.4f, bvh %.4f\n", p.x(), p.y(), p.z(), b[i].penetration_depth,
                 a[i].penetration_depth);
   }
+}
+
+// Heidelberger 2004 eq. (2)-(5) for one group (body a's vertices inside body b), written out with a
+// branch per neighbour: each edge p-q to a non-colliding neighbour by its own single-segment query
+// (first_ray_hit from q, t in [0, 1]), smoothed normals from TetMesh::vertex_normals, then layer by
+// layer over neighbours of earlier layers. Same sums in the same order as the solver's.
+std::map<int, VertexContact> plain_depths(const CollisionBody& a, const CollisionBody& b,
+                                          const std::set<int>& inside) {
+  SurfaceBvh bvh;
+  bvh.build(*b.mesh, b.positions);
+  std::vector<Vec3> normals(static_cast<size_t>(b.mesh->vertex_count()));
+  b.mesh->vertex_normals(b.positions, normals);
+  auto smoothed = [&](const SurfacePoint& h) {
+    const auto& tri = b.mesh->surface_triangles()[static_cast<size_t>(h.triangle)];
+    Vec3 n = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) n += h.barycentric[k] * normals[static_cast<size_t>(tri[static_cast<size_t>(k)])];
+    const double len = n.norm();
+    return len > 1e-12 ? Vec3(n / len) : b.mesh->triangle_normal(b.positions, h.triangle);
+  };
+  const double min_d2 = std::pow(1e-9 * std::max(a.mesh->mean_edge_length(), 1e-300), 2);
+  auto x = [&](int v) -> const Vec3& { return a.positions[static_cast<size_t>(v)]; };
+  std::map<int, VertexContact> out;
+  for (int v : inside) {
+    double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
+    Vec3 direction_sum = Vec3::Zero(), nearest_normal = Vec3::Zero();
+    for (int q : a.mesh->vertex_neighbors(v)) {
+      if (inside.count(q) != 0) continue;
+      SurfacePoint h;
+      if (!bvh.first_ray_hit(x(q), x(v) - x(q), -1, h, 1.0)) continue;
+      const Vec3 n = smoothed(h);
+      const double d2 = (h.point - x(v)).squaredNorm();
+      const double w = 1.0 / std::max(d2, min_d2);
+      depth_sum += w * (h.point - x(v)).dot(n);
+      direction_sum += w * n;
+      weight_sum += w;
+      if (d2 < nearest_d2) {
+        nearest_d2 = d2;
+        nearest_normal = n;
+      }
+    }
+    if (weight_sum == 0.0) continue;
+    VertexContact& c = out[v];
+    c.penetration_depth = depth_sum / weight_sum;
+    const double len = direction_sum.norm();
+    c.penetration_direction = len > 1e-12 * weight_sum ? Vec3(direction_sum / len) : nearest_normal;
+    c.depth_source = DepthSource::border;
+    c.layer = 0;
+  }
+  for (int layer = 1;; ++layer) {
+    std::set<int> next;
+    for (const auto& [v, c] : out) {
+      if (c.layer != layer - 1) continue;
+      for (int q : a.mesh->vertex_neighbors(v)) {
+        if (inside.count(q) != 0 && out.count(q) == 0) next.insert(q);
+      }
+    }
+    if (next.empty()) break;
+    for (int v : next) {
+      double depth_sum = 0.0, weight_sum = 0.0, nearest_d2 = std::numeric_limits<double>::max();
+      Vec3 direction_sum = Vec3::Zero(), nearest_direction = Vec3::Zero();
+      for (int q : a.mesh->vertex_neighbors(v)) {
+        const auto it = out.find(q);
+        if (it == out.end() || it->second.layer >= layer) continue;
+        const Vec3 e = x(q) - x(v);
+        const double d2 = e.squaredNorm();
+        const double mu = 1.0 / std::max(d2, min_d2);
+        depth_sum += mu * (e.dot(it->second.penetration_direction) + it->second.penetration_depth);
+        direction_sum += mu * it->second.penetration_direction;
+        weight_sum += mu;
+        if (d2 < nearest_d2) {
+          nearest_d2 = d2;
+          nearest_direction = it->second.penetration_direction;
+        }
+      }
+      VertexContact& c = out[v];
+      c.penetration_depth = depth_sum / weight_sum;
+      const double len = direction_sum.norm();
+      c.penetration_direction = len > 1e-12 * weight_sum ? Vec3(direction_sum / len) : nearest_direction;
+      c.depth_source = DepthSource::propagated;
+      c.layer = layer;
+    }
+  }
+  for (auto& [v, c] : out) {
+    c.penetration_depth = std::max(c.penetration_depth, 0.0);
+    SurfacePoint h;
+    if (bvh.first_ray_hit(x(v), c.penetration_direction, -1, h)) {
+      c.contact_triangle = h.triangle;
+      c.contact_point = h.point;
+    }
+  }
+  return out;
+}
+
+TEST(PenetrationDepthWalk, BorderSumsAndLayersEqualThePlainEquationsBitForBit) {
+  // The solver classifies neighbours by selects and counters (session 11); the plain loops above
+  // must give the same bits for every contact, over poses with several layers.
+  Scene s = overlapping_boxes(3);
+  SpatialHash hash;
+  PenetrationDepthSolver solver;  // default: contact rays by the walk
+  std::vector<VertexInTet> colliding;
+  std::vector<VertexContact> contacts;
+  int compared = 0, propagated = 0;
+  for (int step = 0; step < 6; ++step) {
+    const auto bodies = s.bodies();
+    hash.detect(bodies, CollisionFilter::from_bodies(bodies), colliding);
+    solver.compute(bodies, colliding, contacts);
+    std::map<std::pair<int, int>, std::set<int>> groups;
+    for (const VertexInTet& c : colliding) groups[{c.body, c.penetrated_body}].insert(c.vertex);
+    for (const auto& [pair, inside] : groups) {
+      const auto plain = plain_depths(bodies[static_cast<size_t>(pair.first)],
+                                      bodies[static_cast<size_t>(pair.second)], inside);
+      for (const VertexContact& c : contacts) {
+        if (c.body != pair.first || c.penetrated_body != pair.second) continue;
+        const auto it = plain.find(c.vertex);
+        ASSERT_NE(it, plain.end()) << "vertex " << c.vertex << " has no plain depth (enclosed?)";
+        const VertexContact& r = it->second;
+        EXPECT_EQ(c.penetration_depth, r.penetration_depth) << "step " << step << " vertex " << c.vertex;
+        EXPECT_EQ(c.penetration_direction, r.penetration_direction) << "step " << step << " vertex " << c.vertex;
+        EXPECT_EQ(c.depth_source, r.depth_source);
+        EXPECT_EQ(c.layer, r.layer);
+        EXPECT_EQ(c.contact_triangle, r.contact_triangle);
+        EXPECT_EQ(c.contact_point, r.contact_point);
+        ++compared;
+        propagated += c.depth_source == DepthSource::propagated ? 1 : 0;
+      }
+    }
+    move(s, step % 3 == 2 ? 0.05 : 2e-3, 30u + static_cast<unsigned>(step));
+  }
+  EXPECT_GT(compared, 600);
+  EXPECT_GT(propagated, 50);  // the propagation loops were exercised
 }
 
 }  // namespace
