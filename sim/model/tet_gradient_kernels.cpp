@@ -59,6 +59,117 @@ PLIANT_AVX2_ONLY inline void product_transposed(__m256d a0, __m256d a1, __m256d 
                 product_column(a0, a1, a2, B[2], B[5], B[8]), C);
 }
 
+/// Four 3x3 matrices (column-major, 9 doubles each at m[0..3]) as nine 4-lane vectors, one per
+/// entry: e[k] lane l = m[l][k] (lane l is tet l of a batch).
+PLIANT_AVX2_ONLY inline void load_entries(const double* m0, const double* m1, const double* m2, const double* m3,
+                                          __m256d e[9]) {
+  for (int o = 0; o < 8; o += 4) {  // entries 0-3, 4-7: a 4x4 transpose
+    const __m256d r0 = _mm256_loadu_pd(m0 + o), r1 = _mm256_loadu_pd(m1 + o);
+    const __m256d r2 = _mm256_loadu_pd(m2 + o), r3 = _mm256_loadu_pd(m3 + o);
+    const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+    const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+    e[o] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    e[o + 1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    e[o + 2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+    e[o + 3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+  }
+  e[8] = _mm256_set_pd(m3[8], m2[8], m1[8], m0[8]);
+}
+
+/// The inverse of load_entries: e[k] lane l into m[l][k].
+PLIANT_AVX2_ONLY inline void store_entries(const __m256d e[9], double* m0, double* m1, double* m2, double* m3) {
+  for (int o = 0; o < 8; o += 4) {
+    const __m256d t0 = _mm256_unpacklo_pd(e[o], e[o + 1]), t1 = _mm256_unpackhi_pd(e[o], e[o + 1]);
+    const __m256d t2 = _mm256_unpacklo_pd(e[o + 2], e[o + 3]), t3 = _mm256_unpackhi_pd(e[o + 2], e[o + 3]);
+    _mm256_storeu_pd(m0 + o, _mm256_permute2f128_pd(t0, t2, 0x20));
+    _mm256_storeu_pd(m1 + o, _mm256_permute2f128_pd(t1, t3, 0x20));
+    _mm256_storeu_pd(m2 + o, _mm256_permute2f128_pd(t0, t2, 0x31));
+    _mm256_storeu_pd(m3 + o, _mm256_permute2f128_pd(t1, t3, 0x31));
+  }
+  const __m128d lo = _mm256_castpd256_pd128(e[8]), hi = _mm256_extractf128_pd(e[8], 1);
+  _mm_storel_pd(m0 + 8, lo);
+  _mm_storeh_pd(m1 + 8, lo);
+  _mm_storel_pd(m2 + 8, hi);
+  _mm_storeh_pd(m3 + 8, hi);
+}
+
+/// R = q.toRotationMatrix() for the four quaternions q[0..3] (Eigen 3.4's expressions, lane by
+/// lane), as nine entry vectors (column-major: R(r, c) = R[r + 3 c]).
+PLIANT_AVX2_ONLY inline void rotation_entries(const Quat* q, __m256d R[9]) {
+  // Quaternion coefficients are stored (x, y, z, w): the same 4x4 transpose as load_entries.
+  const __m256d r0 = _mm256_loadu_pd(q[0].coeffs().data()), r1 = _mm256_loadu_pd(q[1].coeffs().data());
+  const __m256d r2 = _mm256_loadu_pd(q[2].coeffs().data()), r3 = _mm256_loadu_pd(q[3].coeffs().data());
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+  const __m256d x = _mm256_permute2f128_pd(t0, t2, 0x20), y = _mm256_permute2f128_pd(t1, t3, 0x20);
+  const __m256d z = _mm256_permute2f128_pd(t0, t2, 0x31), w = _mm256_permute2f128_pd(t1, t3, 0x31);
+  const __m256d two = _mm256_set1_pd(2.0), one = _mm256_set1_pd(1.0);
+  const __m256d tx = _mm256_mul_pd(two, x), ty = _mm256_mul_pd(two, y), tz = _mm256_mul_pd(two, z);
+  const __m256d twx = _mm256_mul_pd(tx, w), twy = _mm256_mul_pd(ty, w), twz = _mm256_mul_pd(tz, w);
+  const __m256d txx = _mm256_mul_pd(tx, x), txy = _mm256_mul_pd(ty, x), txz = _mm256_mul_pd(tz, x);
+  const __m256d tyy = _mm256_mul_pd(ty, y), tyz = _mm256_mul_pd(tz, y), tzz = _mm256_mul_pd(tz, z);
+  R[0] = _mm256_sub_pd(one, _mm256_add_pd(tyy, tzz));  // (0, 0)
+  R[3] = _mm256_sub_pd(txy, twz);                      // (0, 1)
+  R[6] = _mm256_add_pd(txz, twy);                      // (0, 2)
+  R[1] = _mm256_add_pd(txy, twz);                      // (1, 0)
+  R[4] = _mm256_sub_pd(one, _mm256_add_pd(txx, tzz));  // (1, 1)
+  R[7] = _mm256_sub_pd(tyz, twx);                      // (1, 2)
+  R[2] = _mm256_sub_pd(txz, twy);                      // (2, 0)
+  R[5] = _mm256_add_pd(tyz, twx);                      // (2, 1)
+  R[8] = _mm256_sub_pd(one, _mm256_add_pd(txx, tyy));  // (2, 2)
+}
+
+/// Eigen 3.4's sum of the nine entries of a 3x3 matrix in the portable build (redux with SSE2
+/// packets of two: ((p_0 + p_1) + (p_2 + p_3)) over the packets p_j = (e_2j, e_2j+1), then lane 0 +
+/// lane 1, then + e_8), lane by lane.
+PLIANT_AVX2_ONLY inline __m256d eigen_sum9(const __m256d e[9]) {
+  const __m256d even = _mm256_add_pd(_mm256_add_pd(e[0], e[2]), _mm256_add_pd(e[4], e[6]));
+  const __m256d odd = _mm256_add_pd(_mm256_add_pd(e[1], e[3]), _mm256_add_pd(e[5], e[7]));
+  return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
+}
+
+/// element_forces_avx2 for four tets, one per lane: every lane performs the scalar expressions'
+/// operations in their order (session 11).
+PLIANT_AVX2_ONLY void element_forces_lanes(const Quat* q, const Mat3* F, const Mat3* rest_shape_inverse,
+                                           const double* volume, double mu, double lambda, double* energy, Mat3* H) {
+  __m256d R[9], f[9], e[9];
+  rotation_entries(q, R);
+  load_entries(F[0].data(), F[1].data(), F[2].data(), F[3].data(), f);
+  // trace = R.cwiseProduct(F).sum() - 3
+  for (int k = 0; k < 9; ++k) e[k] = _mm256_mul_pd(R[k], f[k]);
+  const __m256d trace = _mm256_sub_pd(eigen_sum9(e), _mm256_set1_pd(3.0));
+  // F - R, its squared norm, the energy V (mu |F - R|^2 + ((0.5 lambda) trace) trace)
+  __m256d fmr[9];
+  for (int k = 0; k < 9; ++k) {
+    fmr[k] = _mm256_sub_pd(f[k], R[k]);
+    e[k] = _mm256_mul_pd(fmr[k], fmr[k]);
+  }
+  const __m256d v = _mm256_loadu_pd(volume);
+  const __m256d half_lambda_trace = _mm256_mul_pd(_mm256_set1_pd(0.5 * lambda), trace);
+  _mm256_storeu_pd(energy, _mm256_mul_pd(v, _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(mu), eigen_sum9(e)),
+                                                          _mm256_mul_pd(half_lambda_trace, trace))));
+  // A = (-V) ((2 mu) (F - R) + (lambda trace) R)
+  const __m256d two_mu = _mm256_set1_pd(2.0 * mu), lambda_trace = _mm256_mul_pd(_mm256_set1_pd(lambda), trace);
+  const __m256d minus_volume = _mm256_xor_pd(_mm256_set1_pd(-0.0), v);
+  __m256d a[9];
+  for (int k = 0; k < 9; ++k) {
+    a[k] = _mm256_mul_pd(minus_volume, _mm256_add_pd(_mm256_mul_pd(two_mu, fmr[k]), _mm256_mul_pd(lambda_trace, R[k])));
+  }
+  // H = A B^T, B = Dm^-1: H(r, j) = sum_k A(r, k) B(j, k), rows 0-1 (k0 + k1) + k2, row 2 k0 + (k1 + k2)
+  __m256d b[9];
+  load_entries(rest_shape_inverse[0].data(), rest_shape_inverse[1].data(), rest_shape_inverse[2].data(),
+               rest_shape_inverse[3].data(), b);
+  __m256d h[9];
+  for (int j = 0; j < 3; ++j) {
+    for (int r = 0; r < 3; ++r) {
+      const __m256d p0 = _mm256_mul_pd(a[r], b[j]), p1 = _mm256_mul_pd(a[r + 3], b[j + 3]);
+      const __m256d p2 = _mm256_mul_pd(a[r + 6], b[j + 6]);
+      h[r + 3 * j] = r < 2 ? _mm256_add_pd(_mm256_add_pd(p0, p1), p2) : _mm256_add_pd(p0, _mm256_add_pd(p1, p2));
+    }
+  }
+  store_entries(h, H[0].data(), H[1].data(), H[2].data(), H[3].data());
+}
+
 }  // namespace
 
 PLIANT_AVX2_ONLY void deformation_gradients_avx2(const double* x, const TetIndices* tets,
@@ -87,8 +198,12 @@ PLIANT_AVX2_ONLY void rotated_gradients_avx2(const Quat* q, const Mat3* rest_sha
 PLIANT_AVX2_ONLY void element_forces_avx2(const Quat* q, const Mat3* F, const Mat3* rest_shape_inverse,
                                           const double* volume, double mu, double lambda, size_t count, double* energy,
                                           Mat3* H) {
+  size_t l = 0;
+  for (; l + 4 <= count; l += 4) {  // four tets in lanes
+    element_forces_lanes(q + l, F + l, rest_shape_inverse + l, volume + l, mu, lambda, energy + l, H + l);
+  }
   const __m256d two_mu = _mm256_set1_pd(2.0 * mu);
-  for (size_t l = 0; l < count; ++l) {
+  for (; l < count; ++l) {  // the rest one by one, a column per vector
     // evaluate_tet_batch's scalar expressions (Eigen's SSE2 code: no __AVX__ here, no contraction)
     const Mat3 R = q[l].toRotationMatrix();
     const double trace = R.cwiseProduct(F[l]).sum() - 3.0;

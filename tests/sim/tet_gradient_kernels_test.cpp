@@ -92,6 +92,44 @@ TEST(TetGradientKernels, RotatedGradientAndElementForcesEqualTheScalarProductsBi
   }
 }
 
+// Session 11: element_forces_avx2 runs four tets at a time with one tet per lane (R from the
+// quaternion, trace, |F - R|^2, energy, P and H = (-V P) Dm^-T in the lanes), the rest of a batch
+// one by one. Batches of 1 to 9 tets (both paths and their seam), every tet against the scalar
+// expressions of evaluate_tet_batch.
+TEST(TetGradientKernels, ElementForcesInTetLanesEqualTheScalarExpressionsBitForBit) {
+  if (!tet_gradient_kernels_available()) GTEST_SKIP() << "kernels off (no AVX2, or a native build)";
+  RandomEntries r;
+  std::uniform_int_distribution<int> batch(1, 9);
+  constexpr int kMaxBatch = 9;
+  for (int s = 0; s < 30000; ++s) {
+    const auto count = static_cast<size_t>(batch(r.rng));
+    const double mu = std::abs(r()), lambda = std::abs(r());
+    Quat q[kMaxBatch];
+    Mat3 F[kMaxBatch], Dm_inv[kMaxBatch], H[kMaxBatch];
+    double volume[kMaxBatch], energy[kMaxBatch];
+    for (size_t l = 0; l < count; ++l) {
+      q[l] = Quat(r.unit(r.rng), r.unit(r.rng), r.unit(r.rng), r.unit(r.rng));
+      q[l].normalize();
+      F[l] = r.matrix();
+      Dm_inv[l] = r.matrix();
+      volume[l] = std::abs(r());
+    }
+    element_forces_avx2(q, F, Dm_inv, volume, mu, lambda, count, energy, H);
+    for (size_t l = 0; l < count; ++l) {
+      const Mat3 R = q[l].toRotationMatrix();
+      const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
+      const Mat3 FmR = F[l] - R;
+      const double expected_energy = volume[l] * (mu * FmR.squaredNorm() + 0.5 * lambda * trace * trace);
+      const Mat3 P = 2.0 * mu * FmR + lambda * trace * R;
+      const Mat3 expected = -volume[l] * P * Dm_inv[l].transpose();
+      ASSERT_EQ(std::memcmp(&energy[l], &expected_energy, sizeof(double)), 0)
+          << "sample " << s << " tet " << l << " of " << count << ": " << energy[l] << " vs " << expected_energy;
+      ASSERT_TRUE(same_bits(H[l], expected)) << "sample " << s << " tet " << l << " of " << count << "\n"
+                                             << H[l] - expected;
+    }
+  }
+}
+
 TEST(TetGradientKernels, ScatterEqualsTheScalarScatterBitForBit) {
   if (!tet_gradient_kernels_available()) GTEST_SKIP() << "kernels off (no AVX2, or a native build)";
   RandomEntries r;
