@@ -359,16 +359,20 @@ void CorotationalFem::assemble_step_stiffness() {
     return;
   }
   row_dirty_.assign(n, 0);
+  moved_tets_.clear();
   for (size_t t = 0; t < nt; ++t) {
     if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
     block_rotations_[t] = rotations_[t];
-    // rotated_gradients_ may be stale (linearise)
-    if (vector_kernels_ && tet_kernels_on_this_cpu()) {
-      rotated_gradients_avx2(&rotations_[t], &rest_shape_inverse_[t], 1, &block_gradients_[t]);
-    } else {
-      block_gradients_[t] = rotated_gradient(t);
-    }
+    moved_tets_.push_back(static_cast<int>(t));
     for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
+  }
+  // The moved tets' gradients from their current rotations (rotated_gradients_ may be stale:
+  // linearise), four at a time in lanes where the kernels run (the same bits, tet_gradient_kernels.h).
+  if (vector_kernels_ && tet_kernels_on_this_cpu()) {
+    rotated_gradients_at_avx2(rotations_.data(), rest_shape_inverse_.data(), moved_tets_.data(), moved_tets_.size(),
+                              block_gradients_.data());
+  } else {
+    for (int t : moved_tets_) block_gradients_[static_cast<size_t>(t)] = rotated_gradient(static_cast<size_t>(t));
   }
   size_t rows = 0;
   for (size_t i = 0; i < n; ++i) {

@@ -93,12 +93,13 @@ PLIANT_AVX2_ONLY inline void store_entries(const __m256d e[9], double* m0, doubl
   _mm_storeh_pd(m3 + 8, hi);
 }
 
-/// R = q.toRotationMatrix() for the four quaternions q[0..3] (Eigen 3.4's expressions, lane by
-/// lane), as nine entry vectors (column-major: R(r, c) = R[r + 3 c]).
-PLIANT_AVX2_ONLY inline void rotation_entries(const Quat* q, __m256d R[9]) {
+/// R = q.toRotationMatrix() for four quaternions (Eigen 3.4's expressions, lane by lane), as nine
+/// entry vectors (column-major: R(r, c) = R[r + 3 c]).
+PLIANT_AVX2_ONLY inline void rotation_entries(const Quat& q0, const Quat& q1, const Quat& q2, const Quat& q3,
+                                              __m256d R[9]) {
   // Quaternion coefficients are stored (x, y, z, w): the same 4x4 transpose as load_entries.
-  const __m256d r0 = _mm256_loadu_pd(q[0].coeffs().data()), r1 = _mm256_loadu_pd(q[1].coeffs().data());
-  const __m256d r2 = _mm256_loadu_pd(q[2].coeffs().data()), r3 = _mm256_loadu_pd(q[3].coeffs().data());
+  const __m256d r0 = _mm256_loadu_pd(q0.coeffs().data()), r1 = _mm256_loadu_pd(q1.coeffs().data());
+  const __m256d r2 = _mm256_loadu_pd(q2.coeffs().data()), r3 = _mm256_loadu_pd(q3.coeffs().data());
   const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
   const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
   const __m256d x = _mm256_permute2f128_pd(t0, t2, 0x20), y = _mm256_permute2f128_pd(t1, t3, 0x20);
@@ -128,12 +129,36 @@ PLIANT_AVX2_ONLY inline __m256d eigen_sum9(const __m256d e[9]) {
   return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
 }
 
+/// C = A B^T lane by lane in Eigen's order (product_column's): C(r, j) = sum_k A(r, k) B(j, k), rows
+/// 0 and 1 (k0 + k1) + k2, row 2 k0 + (k1 + k2).
+PLIANT_AVX2_ONLY inline void product_transposed_lanes(const __m256d a[9], const __m256d b[9], __m256d c[9]) {
+  for (int j = 0; j < 3; ++j) {
+    for (int r = 0; r < 3; ++r) {
+      const __m256d p0 = _mm256_mul_pd(a[r], b[j]), p1 = _mm256_mul_pd(a[r + 3], b[j + 3]);
+      const __m256d p2 = _mm256_mul_pd(a[r + 6], b[j + 6]);
+      c[r + 3 * j] = r < 2 ? _mm256_add_pd(_mm256_add_pd(p0, p1), p2) : _mm256_add_pd(p0, _mm256_add_pd(p1, p2));
+    }
+  }
+}
+
+/// R Dm^-T for four tets, one per lane (rotated_gradients_avx2's product, R from the quaternion as
+/// toRotationMatrix): the scalar rotated_gradient bit for bit (session 11).
+PLIANT_AVX2_ONLY inline void rotated_gradient_lanes(const Quat& q0, const Quat& q1, const Quat& q2, const Quat& q3,
+                                                    const Mat3& B0, const Mat3& B1, const Mat3& B2, const Mat3& B3,
+                                                    Mat3& G0, Mat3& G1, Mat3& G2, Mat3& G3) {
+  __m256d R[9], b[9], g[9];
+  rotation_entries(q0, q1, q2, q3, R);
+  load_entries(B0.data(), B1.data(), B2.data(), B3.data(), b);
+  product_transposed_lanes(R, b, g);
+  store_entries(g, G0.data(), G1.data(), G2.data(), G3.data());
+}
+
 /// element_forces_avx2 for four tets, one per lane: every lane performs the scalar expressions'
 /// operations in their order (session 11).
 PLIANT_AVX2_ONLY void element_forces_lanes(const Quat* q, const Mat3* F, const Mat3* rest_shape_inverse,
                                            const double* volume, double mu, double lambda, double* energy, Mat3* H) {
   __m256d R[9], f[9], e[9];
-  rotation_entries(q, R);
+  rotation_entries(q[0], q[1], q[2], q[3], R);
   load_entries(F[0].data(), F[1].data(), F[2].data(), F[3].data(), f);
   // trace = R.cwiseProduct(F).sum() - 3
   for (int k = 0; k < 9; ++k) e[k] = _mm256_mul_pd(R[k], f[k]);
@@ -155,18 +180,12 @@ PLIANT_AVX2_ONLY void element_forces_lanes(const Quat* q, const Mat3* F, const M
   for (int k = 0; k < 9; ++k) {
     a[k] = _mm256_mul_pd(minus_volume, _mm256_add_pd(_mm256_mul_pd(two_mu, fmr[k]), _mm256_mul_pd(lambda_trace, R[k])));
   }
-  // H = A B^T, B = Dm^-1: H(r, j) = sum_k A(r, k) B(j, k), rows 0-1 (k0 + k1) + k2, row 2 k0 + (k1 + k2)
+  // H = A B^T, B = Dm^-1
   __m256d b[9];
   load_entries(rest_shape_inverse[0].data(), rest_shape_inverse[1].data(), rest_shape_inverse[2].data(),
                rest_shape_inverse[3].data(), b);
   __m256d h[9];
-  for (int j = 0; j < 3; ++j) {
-    for (int r = 0; r < 3; ++r) {
-      const __m256d p0 = _mm256_mul_pd(a[r], b[j]), p1 = _mm256_mul_pd(a[r + 3], b[j + 3]);
-      const __m256d p2 = _mm256_mul_pd(a[r + 6], b[j + 6]);
-      h[r + 3 * j] = r < 2 ? _mm256_add_pd(_mm256_add_pd(p0, p1), p2) : _mm256_add_pd(p0, _mm256_add_pd(p1, p2));
-    }
-  }
+  product_transposed_lanes(a, b, h);
   store_entries(h, H[0].data(), H[1].data(), H[2].data(), H[3].data());
 }
 
@@ -186,12 +205,38 @@ PLIANT_AVX2_ONLY void deformation_gradients_avx2(const double* x, const TetIndic
   }
 }
 
+namespace {
+
+/// One tet's R Dm^-T, a column per vector (R scalar: Eigen's expressions, 12 products and 9 sums).
+PLIANT_AVX2_ONLY inline void rotated_gradient_columns(const Quat& q, const Mat3& rest_shape_inverse, Mat3& G) {
+  const Mat3 R = q.toRotationMatrix();
+  const double* r = R.data();
+  product_transposed(_mm256_loadu_pd(r), _mm256_loadu_pd(r + 3), load3(r + 6), rest_shape_inverse.data(), G.data());
+}
+
+}  // namespace
+
 PLIANT_AVX2_ONLY void rotated_gradients_avx2(const Quat* q, const Mat3* rest_shape_inverse, size_t count, Mat3* G) {
-  for (size_t l = 0; l < count; ++l) {
-    const Mat3 R = q[l].toRotationMatrix();  // scalar: Eigen's expressions, 12 products and 9 sums
-    const double* r = R.data();
-    product_transposed(_mm256_loadu_pd(r), _mm256_loadu_pd(r + 3), load3(r + 6), rest_shape_inverse[l].data(),
-                       G[l].data());
+  size_t l = 0;
+  for (; l + 4 <= count; l += 4) {  // four tets in lanes
+    rotated_gradient_lanes(q[l], q[l + 1], q[l + 2], q[l + 3], rest_shape_inverse[l], rest_shape_inverse[l + 1],
+                           rest_shape_inverse[l + 2], rest_shape_inverse[l + 3], G[l], G[l + 1], G[l + 2], G[l + 3]);
+  }
+  for (; l < count; ++l) rotated_gradient_columns(q[l], rest_shape_inverse[l], G[l]);
+}
+
+PLIANT_AVX2_ONLY void rotated_gradients_at_avx2(const Quat* q, const Mat3* rest_shape_inverse, const int* tets,
+                                                size_t count, Mat3* G) {
+  size_t l = 0;
+  for (; l + 4 <= count; l += 4) {  // four tets in lanes
+    const auto t0 = static_cast<size_t>(tets[l]), t1 = static_cast<size_t>(tets[l + 1]);
+    const auto t2 = static_cast<size_t>(tets[l + 2]), t3 = static_cast<size_t>(tets[l + 3]);
+    rotated_gradient_lanes(q[t0], q[t1], q[t2], q[t3], rest_shape_inverse[t0], rest_shape_inverse[t1],
+                           rest_shape_inverse[t2], rest_shape_inverse[t3], G[t0], G[t1], G[t2], G[t3]);
+  }
+  for (; l < count; ++l) {
+    const auto t = static_cast<size_t>(tets[l]);
+    rotated_gradient_columns(q[t], rest_shape_inverse[t], G[t]);
   }
 }
 
@@ -249,6 +294,8 @@ void scatter_element_forces_avx2(const TetIndices*, const Mat3*, size_t, double*
 void deformation_gradients_avx2(const double*, const TetIndices*, const Mat3*, size_t, Mat3*) {}
 
 void rotated_gradients_avx2(const Quat*, const Mat3*, size_t, Mat3*) {}
+
+void rotated_gradients_at_avx2(const Quat*, const Mat3*, const int*, size_t, Mat3*) {}
 
 void element_forces_avx2(const Quat*, const Mat3*, const Mat3*, const double*, double, double, size_t, double*, Mat3*) {}
 

@@ -32,6 +32,10 @@ void deformation_gradients_avx2(const double* x, const TetIndices* tets, const M
 /// CorotationalFem's scalar rotated_gradient bit for bit.
 void rotated_gradients_avx2(const Quat* q, const Mat3* rest_shape_inverse, size_t count, Mat3* G);
 
+/// The same for the tets t = tets[0 .. count - 1] of whole-mesh arrays: G[t] = R_t Dm_t^-T,
+/// R_t = q[t].toRotationMatrix() (the K' reuse step's moved tets; distinct indices).
+void rotated_gradients_at_avx2(const Quat* q, const Mat3* rest_shape_inverse, const int* tets, size_t count, Mat3* G);
+
 /// The evaluation pass's per-tet expressions for `count` tets (CorotationalFem::evaluate_tet_batch bit
 /// for bit): R = q.toRotationMatrix(), trace = tr(R^T F) - 3, the energy V (mu |F - R|^2 + lambda/2
 /// trace^2) into energy[l] and the element forces H = (-V P) Dm^-T into H[l], P = (2 mu) (F - R) +
