@@ -12,6 +12,11 @@
 // would contract a * b + c), so the results are the scalar code's bit for bit (tested:
 // tet_gradient_kernels_test). A -march=native build has Eigen's AVX packets and FMA in the scalar
 // code, another order: there these kernels report themselves unavailable and the scalar code runs.
+// Session 11: the element forces and the rotated gradients take four tets per call with one tet per
+// lane (the tets' 3x3 matrices transposed into nine entry vectors): R from the quaternion, the trace,
+// |F - R|^2, the energy and P then cost one vector operation per scalar one, each lane the scalar's
+// expression in its order (Eigen's 9-term sums as ((p0 + p1) + (p2 + p3)), lane 0 + lane 1, + e8 over
+// SSE2 packets p_j = (e_2j, e_2j+1)); the products keep the row order above.
 #pragma once
 
 #include "sim/math_types.h"
