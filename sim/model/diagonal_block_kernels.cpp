@@ -2,6 +2,8 @@
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
 #include <immintrin.h>
+
+#include "sim/model/matrix_entry_lanes.h"
 #define PLIANT_DIAGONAL_BLOCK_KERNELS 1
 // AVX2 without "fma": with FMA enabled GCC would contract a * b - c (its C++ default is
 // -ffp-contract=fast) and the results would no longer be the scalar code's.
@@ -34,38 +36,8 @@ bool diagonal_block_kernels_available() {
 
 namespace {
 
-/// Four column-major 3x3 blocks as nine 4-lane vectors, e[k] lane l = m_l[k].
-PLIANT_AVX2_ONLY inline void load_entries(const double* m0, const double* m1, const double* m2, const double* m3,
-                                          __m256d e[9]) {
-  for (int o = 0; o < 8; o += 4) {
-    const __m256d r0 = _mm256_loadu_pd(m0 + o), r1 = _mm256_loadu_pd(m1 + o);
-    const __m256d r2 = _mm256_loadu_pd(m2 + o), r3 = _mm256_loadu_pd(m3 + o);
-    const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
-    const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
-    e[o] = _mm256_permute2f128_pd(t0, t2, 0x20);
-    e[o + 1] = _mm256_permute2f128_pd(t1, t3, 0x20);
-    e[o + 2] = _mm256_permute2f128_pd(t0, t2, 0x31);
-    e[o + 3] = _mm256_permute2f128_pd(t1, t3, 0x31);
-  }
-  e[8] = _mm256_set_pd(m3[8], m2[8], m1[8], m0[8]);
-}
-
-/// The inverse of load_entries.
-PLIANT_AVX2_ONLY inline void store_entries(const __m256d e[9], double* m0, double* m1, double* m2, double* m3) {
-  for (int o = 0; o < 8; o += 4) {
-    const __m256d t0 = _mm256_unpacklo_pd(e[o], e[o + 1]), t1 = _mm256_unpackhi_pd(e[o], e[o + 1]);
-    const __m256d t2 = _mm256_unpacklo_pd(e[o + 2], e[o + 3]), t3 = _mm256_unpackhi_pd(e[o + 2], e[o + 3]);
-    _mm256_storeu_pd(m0 + o, _mm256_permute2f128_pd(t0, t2, 0x20));
-    _mm256_storeu_pd(m1 + o, _mm256_permute2f128_pd(t1, t3, 0x20));
-    _mm256_storeu_pd(m2 + o, _mm256_permute2f128_pd(t0, t2, 0x31));
-    _mm256_storeu_pd(m3 + o, _mm256_permute2f128_pd(t1, t3, 0x31));
-  }
-  const __m128d lo = _mm256_castpd256_pd128(e[8]), hi = _mm256_extractf128_pd(e[8], 1);
-  _mm_storel_pd(m0 + 8, lo);
-  _mm_storeh_pd(m1 + 8, lo);
-  _mm_storel_pd(m2 + 8, hi);
-  _mm_storeh_pd(m3 + 8, hi);
-}
+using matrix_lanes::load_entries;
+using matrix_lanes::store_entries;
 
 /// Lane-wise a * b - c * d (Eigen's 2x2 minors: both products rounded, then the difference).
 PLIANT_AVX2_ONLY inline __m256d minor2(__m256d a, __m256d b, __m256d c, __m256d d) {
