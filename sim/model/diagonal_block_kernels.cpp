@@ -12,21 +12,6 @@
 
 namespace pliant {
 
-namespace {
-
-/// The scalar code, one block (CorotationalFem::advance's loop before session 11, Eigen's
-/// expressions): the reference for the lanes and the path for the last n % 4 blocks.
-bool invert_diagonal_block(const Mat3& D, bool fixed, Mat3& diagonal, Mat3& inverse) {
-  const Mat3 Di = D;  // D may be inverse
-  const double det = Di.determinant();
-  const bool passes = fixed || (det > 0.0 && Di(0, 0) > 0.0 && Di(0, 0) * Di(1, 1) > Di(0, 1) * Di(1, 0));
-  diagonal = fixed ? Mat3::Identity() : Di;
-  inverse = (fixed || !(det > 0.0)) ? Mat3::Zero() : Mat3(Di.inverse());
-  return passes;
-}
-
-}  // namespace
-
 #if defined(PLIANT_DIAGONAL_BLOCK_KERNELS)
 
 bool diagonal_block_kernels_available() {
@@ -111,7 +96,21 @@ PLIANT_AVX2_ONLY bool invert_diagonal_blocks_avx2(const Mat3* blocks, const char
   for (; i + 4 <= n; i += 4) {
     all_pass = (invert_lanes(blocks + i, fixed + i, diagonal + i, inverses + i) == 0xF) && all_pass;
   }
-  for (; i < n; ++i) all_pass = invert_diagonal_block(blocks[i], fixed[i] != 0, diagonal[i], inverses[i]) && all_pass;
+  if (i < n) {
+    // The last 1-3 blocks padded to four with fixed identity blocks (which pass and end as zero).
+    Mat3 rest[4] = {Mat3::Identity(), Mat3::Identity(), Mat3::Identity(), Mat3::Identity()};
+    char rest_fixed[4] = {1, 1, 1, 1};
+    Mat3 rest_diagonal[4], rest_inverses[4];
+    for (size_t l = 0; i + l < n; ++l) {
+      rest[l] = blocks[i + l];
+      rest_fixed[l] = fixed[i + l];
+    }
+    all_pass = (invert_lanes(rest, rest_fixed, rest_diagonal, rest_inverses) == 0xF) && all_pass;
+    for (size_t l = 0; i + l < n; ++l) {
+      diagonal[i + l] = rest_diagonal[l];
+      inverses[i + l] = rest_inverses[l];
+    }
+  }
   return all_pass;
 }
 
@@ -119,13 +118,7 @@ PLIANT_AVX2_ONLY bool invert_diagonal_blocks_avx2(const Mat3* blocks, const char
 
 bool diagonal_block_kernels_available() { return false; }
 
-bool invert_diagonal_blocks_avx2(const Mat3* blocks, const char* fixed, size_t n, Mat3* diagonal, Mat3* inverses) {
-  bool all_pass = true;
-  for (size_t i = 0; i < n; ++i) {
-    all_pass = invert_diagonal_block(blocks[i], fixed[i] != 0, diagonal[i], inverses[i]) && all_pass;
-  }
-  return all_pass;
-}
+bool invert_diagonal_blocks_avx2(const Mat3*, const char*, size_t, Mat3*, Mat3*) { return false; }
 
 #endif
 
