@@ -9,6 +9,7 @@
 #include <xmmintrin.h>
 #endif
 
+#include "sim/model/diagonal_block_kernels.h"
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/preconditioned_cg.h"
 #include "sim/model/rotation_batch_avx2.h"
@@ -35,6 +36,12 @@ inline void scatter_tet(const TetIndices& tet, const Mat3& H, std::span<Vec3> f)
 /// tet_gradient_kernels_available(), asked once (the callers test it per batch of tets).
 inline bool tet_kernels_on_this_cpu() {
   static const bool available = tet_gradient_kernels_available();
+  return available;
+}
+
+/// diagonal_block_kernels_available(), asked once.
+inline bool diagonal_kernels_on_this_cpu() {
+  static const bool available = diagonal_block_kernels_available();
   return available;
 }
 
@@ -359,16 +366,20 @@ void CorotationalFem::assemble_step_stiffness() {
     return;
   }
   row_dirty_.assign(n, 0);
+  moved_tets_.clear();
   for (size_t t = 0; t < nt; ++t) {
     if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
     block_rotations_[t] = rotations_[t];
-    // rotated_gradients_ may be stale (linearise)
-    if (vector_kernels_ && tet_kernels_on_this_cpu()) {
-      rotated_gradients_avx2(&rotations_[t], &rest_shape_inverse_[t], 1, &block_gradients_[t]);
-    } else {
-      block_gradients_[t] = rotated_gradient(t);
-    }
+    moved_tets_.push_back(static_cast<int>(t));
     for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
+  }
+  // The moved tets' gradients from their current rotations (rotated_gradients_ may be stale:
+  // linearise), four at a time in lanes where the kernels run (the same bits, tet_gradient_kernels.h).
+  if (vector_kernels_ && tet_kernels_on_this_cpu()) {
+    rotated_gradients_at_avx2(rotations_.data(), rest_shape_inverse_.data(), moved_tets_.data(), moved_tets_.size(),
+                              block_gradients_.data());
+  } else {
+    for (int t : moved_tets_) block_gradients_[static_cast<size_t>(t)] = rotated_gradient(static_cast<size_t>(t));
   }
   size_t rows = 0;
   for (size_t i = 0; i < n; ++i) {
@@ -982,13 +993,19 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // SSOR needs every diagonal block positive definite (a massless or degenerate vertex falls back
   // to block-Jacobi, whose zero block drops that vertex from the preconditioner).
   bool ssor = product_ == StiffnessProduct::assembled && preconditioner_kind_ == Preconditioner::ssor;
-  for (size_t i = 0; i < n; ++i) {
-    const Mat3 Di = preconditioner_[i];
-    const double det = Di.determinant();
-    const bool fixed = in.fixed[i] != 0;
-    ssor = ssor && (fixed || (det > 0.0 && Di(0, 0) > 0.0 && Di(0, 0) * Di(1, 1) > Di(0, 1) * Di(1, 0)));
-    diagonal_system_blocks_[i] = fixed ? Mat3::Identity() : Di;
-    preconditioner_[i] = (fixed || !(det > 0.0)) ? Mat3::Zero() : Mat3(Di.inverse());
+  if (vector_kernels_ && diagonal_kernels_on_this_cpu()) {  // the same bits, four blocks per call
+    ssor = invert_diagonal_blocks_avx2(preconditioner_.data(), in.fixed.data(), n, diagonal_system_blocks_.data(),
+                                       preconditioner_.data()) &&
+           ssor;
+  } else {
+    for (size_t i = 0; i < n; ++i) {
+      const Mat3 Di = preconditioner_[i];
+      const double det = Di.determinant();
+      const bool fixed = in.fixed[i] != 0;
+      ssor = ssor && (fixed || (det > 0.0 && Di(0, 0) > 0.0 && Di(0, 0) * Di(1, 1) > Di(0, 1) * Di(1, 0)));
+      diagonal_system_blocks_[i] = fixed ? Mat3::Identity() : Di;
+      preconditioner_[i] = (fixed || !(det > 0.0)) ? Mat3::Zero() : Mat3(Di.inverse());
+    }
   }
   if (ssor) {
     for (size_t i = 0; i < n; ++i) {

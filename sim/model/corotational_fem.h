@@ -338,6 +338,7 @@ class CorotationalFem final : public DeformationModel {
   mutable std::vector<Mat3> tet_force_scratch_;  ///< per tet: -V P Dm^-T of the parallel pass (N)
   std::vector<int> dirty_rows_;                  ///< rows the reuse step sums again (parallel path)
   std::vector<char> tet_moved_;                  ///< per tet: its rotation left the reuse tolerance
+  std::vector<int> moved_tets_;                  ///< scratch: tets the serial reuse step rebuilds, ascending
 };
 
 }  // namespace pliant

@@ -46,10 +46,12 @@ PLIANT_AVX2_ONLY inline void add_to_block(double* B, __m256d lo, __m256d hi, dou
   B[8] += e8;
 }
 
-/// One tet's rotated gradient r_j (lanes 0..2; lane 3 is another finite entry or zero, never used).
+/// One tet's rotated gradients r_0..r_3, lanes 0..2 of four 4-lane vectors stored side by side
+/// (lane 3 is another finite entry or zero, never used). The corner's scalar factors are read back
+/// from the same stored lanes (session 11): they are the same values, so the scalar copy that summed
+/// r_0 a second time is gone.
 struct CornerGradients {
-  __m256d r[4];
-  double s[4][3];  ///< the same values as scalars
+  alignas(32) double s[4][4];  ///< s[j][k]: component k of r_j
 };
 
 }  // namespace
@@ -62,21 +64,17 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
     const auto a = static_cast<size_t>(sys.corners[2 * c + 1]);
     const double* g = sys.gradients + 9 * t;  // column-major: column j = r_{j+1}
     CornerGradients r;
-    r.r[1] = _mm256_loadu_pd(g);
-    r.r[2] = _mm256_loadu_pd(g + 3);
-    r.r[3] = _mm256_maskload_pd(g + 6, _mm256_set_epi64x(0, -1, -1, -1));  // no read past the tet
+    const __m256d r1 = _mm256_loadu_pd(g), r2 = _mm256_loadu_pd(g + 3);
+    const __m256d r3 = _mm256_maskload_pd(g + 6, _mm256_set_epi64x(0, -1, -1, -1));  // no read past the tet
     // r_0 = -(r_1 + r_2 + r_3), summed left to right as the scalar RotatedGradients.
     // (Negated by the sign bit, as the scalar's unary minus: 0 - x would turn -0 into +0.)
-    r.r[0] = _mm256_xor_pd(_mm256_set1_pd(-0.0), _mm256_add_pd(_mm256_add_pd(r.r[1], r.r[2]), r.r[3]));
-    for (int k = 0; k < 3; ++k) {
-      r.s[1][k] = g[k];
-      r.s[2][k] = g[3 + k];
-      r.s[3][k] = g[6 + k];
-      r.s[0][k] = -(g[k] + g[3 + k] + g[6 + k]);
-    }
+    _mm256_store_pd(r.s[0], _mm256_xor_pd(_mm256_set1_pd(-0.0), _mm256_add_pd(_mm256_add_pd(r1, r2), r3)));
+    _mm256_store_pd(r.s[1], r1);
+    _mm256_store_pd(r.s[2], r2);
+    _mm256_store_pd(r.s[3], r3);
     const double Vmu = sys.volume[t] * sys.mu, Vlambda = sys.volume[t] * sys.lambda;
     const __m256d vmu = _mm256_set1_pd(Vmu);
-    const __m256d ra = r.r[a];
+    const __m256d ra = _mm256_load_pd(r.s[a]);
     const double* as = r.s[a];
     const __m256d a_lo = _mm256_permute4x64_pd(ra, kColumnsOf0to3), a_hi = _mm256_permute4x64_pd(ra, kColumnsOf4to7);
     // w = V lambda r_a, in the rows of entries 0-3 and 4-7.
@@ -102,7 +100,7 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
       }
       // add_stiffness_block: u = V mu r_b, entry (r, c) = (u_r a_c + w_r b_c), plus
       // d = V mu (r_a . r_b) on the diagonal.
-      const __m256d rb = r.r[b];
+      const __m256d rb = _mm256_load_pd(r.s[b]);
       const double* bs = r.s[b];
       const double d = Vmu * (as[0] * bs[0] + as[1] * bs[1] + as[2] * bs[2]);
       const __m256d u_lo = _mm256_mul_pd(vmu, _mm256_permute4x64_pd(rb, kRowsOf0to3));

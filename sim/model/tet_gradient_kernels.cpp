@@ -2,6 +2,8 @@
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
 #include <immintrin.h>
+
+#include "sim/model/matrix_entry_lanes.h"
 #define PLIANT_TET_GRADIENT_KERNELS 1
 // AVX2 without "fma": with FMA enabled GCC would contract a * b + c (its C++ default is
 // -ffp-contract=fast) and the products would no longer be the scalar code's.
@@ -59,6 +61,105 @@ PLIANT_AVX2_ONLY inline void product_transposed(__m256d a0, __m256d a1, __m256d 
                 product_column(a0, a1, a2, B[2], B[5], B[8]), C);
 }
 
+using matrix_lanes::load_entries;
+using matrix_lanes::store_entries;
+
+/// R = q.toRotationMatrix() for four quaternions (Eigen 3.4's expressions, lane by lane), as nine
+/// entry vectors (column-major: R(r, c) = R[r + 3 c]).
+PLIANT_AVX2_ONLY inline void rotation_entries(const Quat& q0, const Quat& q1, const Quat& q2, const Quat& q3,
+                                              __m256d R[9]) {
+  // Quaternion coefficients are stored (x, y, z, w): the same 4x4 transpose as load_entries.
+  const __m256d r0 = _mm256_loadu_pd(q0.coeffs().data()), r1 = _mm256_loadu_pd(q1.coeffs().data());
+  const __m256d r2 = _mm256_loadu_pd(q2.coeffs().data()), r3 = _mm256_loadu_pd(q3.coeffs().data());
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+  const __m256d x = _mm256_permute2f128_pd(t0, t2, 0x20), y = _mm256_permute2f128_pd(t1, t3, 0x20);
+  const __m256d z = _mm256_permute2f128_pd(t0, t2, 0x31), w = _mm256_permute2f128_pd(t1, t3, 0x31);
+  const __m256d two = _mm256_set1_pd(2.0), one = _mm256_set1_pd(1.0);
+  const __m256d tx = _mm256_mul_pd(two, x), ty = _mm256_mul_pd(two, y), tz = _mm256_mul_pd(two, z);
+  const __m256d twx = _mm256_mul_pd(tx, w), twy = _mm256_mul_pd(ty, w), twz = _mm256_mul_pd(tz, w);
+  const __m256d txx = _mm256_mul_pd(tx, x), txy = _mm256_mul_pd(ty, x), txz = _mm256_mul_pd(tz, x);
+  const __m256d tyy = _mm256_mul_pd(ty, y), tyz = _mm256_mul_pd(tz, y), tzz = _mm256_mul_pd(tz, z);
+  R[0] = _mm256_sub_pd(one, _mm256_add_pd(tyy, tzz));  // (0, 0)
+  R[3] = _mm256_sub_pd(txy, twz);                      // (0, 1)
+  R[6] = _mm256_add_pd(txz, twy);                      // (0, 2)
+  R[1] = _mm256_add_pd(txy, twz);                      // (1, 0)
+  R[4] = _mm256_sub_pd(one, _mm256_add_pd(txx, tzz));  // (1, 1)
+  R[7] = _mm256_sub_pd(tyz, twx);                      // (1, 2)
+  R[2] = _mm256_sub_pd(txz, twy);                      // (2, 0)
+  R[5] = _mm256_add_pd(tyz, twx);                      // (2, 1)
+  R[8] = _mm256_sub_pd(one, _mm256_add_pd(txx, tyy));  // (2, 2)
+}
+
+/// Eigen 3.4's sum of the nine entries of a 3x3 matrix in the portable build (redux with SSE2
+/// packets of two: ((p_0 + p_1) + (p_2 + p_3)) over the packets p_j = (e_2j, e_2j+1), then lane 0 +
+/// lane 1, then + e_8), lane by lane.
+PLIANT_AVX2_ONLY inline __m256d eigen_sum9(const __m256d e[9]) {
+  const __m256d even = _mm256_add_pd(_mm256_add_pd(e[0], e[2]), _mm256_add_pd(e[4], e[6]));
+  const __m256d odd = _mm256_add_pd(_mm256_add_pd(e[1], e[3]), _mm256_add_pd(e[5], e[7]));
+  return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
+}
+
+/// C = A B^T lane by lane in Eigen's order (product_column's): C(r, j) = sum_k A(r, k) B(j, k), rows
+/// 0 and 1 (k0 + k1) + k2, row 2 k0 + (k1 + k2).
+PLIANT_AVX2_ONLY inline void product_transposed_lanes(const __m256d a[9], const __m256d b[9], __m256d c[9]) {
+  for (int j = 0; j < 3; ++j) {
+    for (int r = 0; r < 3; ++r) {
+      const __m256d p0 = _mm256_mul_pd(a[r], b[j]), p1 = _mm256_mul_pd(a[r + 3], b[j + 3]);
+      const __m256d p2 = _mm256_mul_pd(a[r + 6], b[j + 6]);
+      c[r + 3 * j] = r < 2 ? _mm256_add_pd(_mm256_add_pd(p0, p1), p2) : _mm256_add_pd(p0, _mm256_add_pd(p1, p2));
+    }
+  }
+}
+
+/// R Dm^-T for four tets, one per lane (rotated_gradients_avx2's product, R from the quaternion as
+/// toRotationMatrix): the scalar rotated_gradient bit for bit (session 11).
+PLIANT_AVX2_ONLY inline void rotated_gradient_lanes(const Quat& q0, const Quat& q1, const Quat& q2, const Quat& q3,
+                                                    const Mat3& B0, const Mat3& B1, const Mat3& B2, const Mat3& B3,
+                                                    Mat3& G0, Mat3& G1, Mat3& G2, Mat3& G3) {
+  __m256d R[9], b[9], g[9];
+  rotation_entries(q0, q1, q2, q3, R);
+  load_entries(B0.data(), B1.data(), B2.data(), B3.data(), b);
+  product_transposed_lanes(R, b, g);
+  store_entries(g, G0.data(), G1.data(), G2.data(), G3.data());
+}
+
+/// element_forces_avx2 for four tets, one per lane: every lane performs the scalar expressions'
+/// operations in their order (session 11).
+PLIANT_AVX2_ONLY void element_forces_lanes(const Quat* q, const Mat3* F, const Mat3* rest_shape_inverse,
+                                           const double* volume, double mu, double lambda, double* energy, Mat3* H) {
+  __m256d R[9], f[9], e[9];
+  rotation_entries(q[0], q[1], q[2], q[3], R);
+  load_entries(F[0].data(), F[1].data(), F[2].data(), F[3].data(), f);
+  // trace = R.cwiseProduct(F).sum() - 3
+  for (int k = 0; k < 9; ++k) e[k] = _mm256_mul_pd(R[k], f[k]);
+  const __m256d trace = _mm256_sub_pd(eigen_sum9(e), _mm256_set1_pd(3.0));
+  // F - R, its squared norm, the energy V (mu |F - R|^2 + ((0.5 lambda) trace) trace)
+  __m256d fmr[9];
+  for (int k = 0; k < 9; ++k) {
+    fmr[k] = _mm256_sub_pd(f[k], R[k]);
+    e[k] = _mm256_mul_pd(fmr[k], fmr[k]);
+  }
+  const __m256d v = _mm256_loadu_pd(volume);
+  const __m256d half_lambda_trace = _mm256_mul_pd(_mm256_set1_pd(0.5 * lambda), trace);
+  _mm256_storeu_pd(energy, _mm256_mul_pd(v, _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(mu), eigen_sum9(e)),
+                                                          _mm256_mul_pd(half_lambda_trace, trace))));
+  // A = (-V) ((2 mu) (F - R) + (lambda trace) R)
+  const __m256d two_mu = _mm256_set1_pd(2.0 * mu), lambda_trace = _mm256_mul_pd(_mm256_set1_pd(lambda), trace);
+  const __m256d minus_volume = _mm256_xor_pd(_mm256_set1_pd(-0.0), v);
+  __m256d a[9];
+  for (int k = 0; k < 9; ++k) {
+    a[k] = _mm256_mul_pd(minus_volume, _mm256_add_pd(_mm256_mul_pd(two_mu, fmr[k]), _mm256_mul_pd(lambda_trace, R[k])));
+  }
+  // H = A B^T, B = Dm^-1
+  __m256d b[9];
+  load_entries(rest_shape_inverse[0].data(), rest_shape_inverse[1].data(), rest_shape_inverse[2].data(),
+               rest_shape_inverse[3].data(), b);
+  __m256d h[9];
+  product_transposed_lanes(a, b, h);
+  store_entries(h, H[0].data(), H[1].data(), H[2].data(), H[3].data());
+}
+
 }  // namespace
 
 PLIANT_AVX2_ONLY void deformation_gradients_avx2(const double* x, const TetIndices* tets,
@@ -75,20 +176,50 @@ PLIANT_AVX2_ONLY void deformation_gradients_avx2(const double* x, const TetIndic
   }
 }
 
+namespace {
+
+/// One tet's R Dm^-T, a column per vector (R scalar: Eigen's expressions, 12 products and 9 sums).
+PLIANT_AVX2_ONLY inline void rotated_gradient_columns(const Quat& q, const Mat3& rest_shape_inverse, Mat3& G) {
+  const Mat3 R = q.toRotationMatrix();
+  const double* r = R.data();
+  product_transposed(_mm256_loadu_pd(r), _mm256_loadu_pd(r + 3), load3(r + 6), rest_shape_inverse.data(), G.data());
+}
+
+}  // namespace
+
 PLIANT_AVX2_ONLY void rotated_gradients_avx2(const Quat* q, const Mat3* rest_shape_inverse, size_t count, Mat3* G) {
-  for (size_t l = 0; l < count; ++l) {
-    const Mat3 R = q[l].toRotationMatrix();  // scalar: Eigen's expressions, 12 products and 9 sums
-    const double* r = R.data();
-    product_transposed(_mm256_loadu_pd(r), _mm256_loadu_pd(r + 3), load3(r + 6), rest_shape_inverse[l].data(),
-                       G[l].data());
+  size_t l = 0;
+  for (; l + 4 <= count; l += 4) {  // four tets in lanes
+    rotated_gradient_lanes(q[l], q[l + 1], q[l + 2], q[l + 3], rest_shape_inverse[l], rest_shape_inverse[l + 1],
+                           rest_shape_inverse[l + 2], rest_shape_inverse[l + 3], G[l], G[l + 1], G[l + 2], G[l + 3]);
+  }
+  for (; l < count; ++l) rotated_gradient_columns(q[l], rest_shape_inverse[l], G[l]);
+}
+
+PLIANT_AVX2_ONLY void rotated_gradients_at_avx2(const Quat* q, const Mat3* rest_shape_inverse, const int* tets,
+                                                size_t count, Mat3* G) {
+  size_t l = 0;
+  for (; l + 4 <= count; l += 4) {  // four tets in lanes
+    const auto t0 = static_cast<size_t>(tets[l]), t1 = static_cast<size_t>(tets[l + 1]);
+    const auto t2 = static_cast<size_t>(tets[l + 2]), t3 = static_cast<size_t>(tets[l + 3]);
+    rotated_gradient_lanes(q[t0], q[t1], q[t2], q[t3], rest_shape_inverse[t0], rest_shape_inverse[t1],
+                           rest_shape_inverse[t2], rest_shape_inverse[t3], G[t0], G[t1], G[t2], G[t3]);
+  }
+  for (; l < count; ++l) {
+    const auto t = static_cast<size_t>(tets[l]);
+    rotated_gradient_columns(q[t], rest_shape_inverse[t], G[t]);
   }
 }
 
 PLIANT_AVX2_ONLY void element_forces_avx2(const Quat* q, const Mat3* F, const Mat3* rest_shape_inverse,
                                           const double* volume, double mu, double lambda, size_t count, double* energy,
                                           Mat3* H) {
+  size_t l = 0;
+  for (; l + 4 <= count; l += 4) {  // four tets in lanes
+    element_forces_lanes(q + l, F + l, rest_shape_inverse + l, volume + l, mu, lambda, energy + l, H + l);
+  }
   const __m256d two_mu = _mm256_set1_pd(2.0 * mu);
-  for (size_t l = 0; l < count; ++l) {
+  for (; l < count; ++l) {  // the rest one by one, a column per vector
     // evaluate_tet_batch's scalar expressions (Eigen's SSE2 code: no __AVX__ here, no contraction)
     const Mat3 R = q[l].toRotationMatrix();
     const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
@@ -134,6 +265,8 @@ void scatter_element_forces_avx2(const TetIndices*, const Mat3*, size_t, double*
 void deformation_gradients_avx2(const double*, const TetIndices*, const Mat3*, size_t, Mat3*) {}
 
 void rotated_gradients_avx2(const Quat*, const Mat3*, size_t, Mat3*) {}
+
+void rotated_gradients_at_avx2(const Quat*, const Mat3*, const int*, size_t, Mat3*) {}
 
 void element_forces_avx2(const Quat*, const Mat3*, const Mat3*, const double*, double, double, size_t, double*, Mat3*) {}
 

@@ -12,6 +12,11 @@
 // would contract a * b + c), so the results are the scalar code's bit for bit (tested:
 // tet_gradient_kernels_test). A -march=native build has Eigen's AVX packets and FMA in the scalar
 // code, another order: there these kernels report themselves unavailable and the scalar code runs.
+// Session 11: the element forces and the rotated gradients take four tets per call with one tet per
+// lane (the tets' 3x3 matrices transposed into nine entry vectors): R from the quaternion, the trace,
+// |F - R|^2, the energy and P then cost one vector operation per scalar one, each lane the scalar's
+// expression in its order (Eigen's 9-term sums as ((p0 + p1) + (p2 + p3)), lane 0 + lane 1, + e8 over
+// SSE2 packets p_j = (e_2j, e_2j+1)); the products keep the row order above.
 #pragma once
 
 #include "sim/math_types.h"
@@ -31,6 +36,10 @@ void deformation_gradients_avx2(const double* x, const TetIndices* tets, const M
 /// The rotated shape gradients G_l = R_l Dm_l^-T, R_l = q[l].toRotationMatrix(), for `count` tets:
 /// CorotationalFem's scalar rotated_gradient bit for bit.
 void rotated_gradients_avx2(const Quat* q, const Mat3* rest_shape_inverse, size_t count, Mat3* G);
+
+/// The same for the tets t = tets[0 .. count - 1] of whole-mesh arrays: G[t] = R_t Dm_t^-T,
+/// R_t = q[t].toRotationMatrix() (the K' reuse step's moved tets; distinct indices).
+void rotated_gradients_at_avx2(const Quat* q, const Mat3* rest_shape_inverse, const int* tets, size_t count, Mat3* G);
 
 /// The evaluation pass's per-tet expressions for `count` tets (CorotationalFem::evaluate_tet_batch bit
 /// for bit): R = q.toRotationMatrix(), trace = tr(R^T F) - 3, the energy V (mu |F - R|^2 + lambda/2

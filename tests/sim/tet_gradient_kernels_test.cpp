@@ -6,6 +6,7 @@
 // where the kernels do not run (no AVX2, or a -march=native build).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -89,6 +90,82 @@ TEST(TetGradientKernels, RotatedGradientAndElementForcesEqualTheScalarProductsBi
     element_forces_avx2(&q, &F, &Dm_inv, &volume, mu, lambda, 1, &energy, &H);
     ASSERT_EQ(std::memcmp(&energy, &expected_energy, sizeof(double)), 0) << "sample " << s;
     ASSERT_TRUE(same_bits(H, expected)) << "sample " << s << "\n" << H - expected;
+  }
+}
+
+// Session 11: element_forces_avx2 runs four tets at a time with one tet per lane (R from the
+// quaternion, trace, |F - R|^2, energy, P and H = (-V P) Dm^-T in the lanes), the rest of a batch
+// one by one. Batches of 1 to 9 tets (both paths and their seam), every tet against the scalar
+// expressions of evaluate_tet_batch.
+TEST(TetGradientKernels, ElementForcesInTetLanesEqualTheScalarExpressionsBitForBit) {
+  if (!tet_gradient_kernels_available()) GTEST_SKIP() << "kernels off (no AVX2, or a native build)";
+  RandomEntries r;
+  std::uniform_int_distribution<int> batch(1, 9);
+  constexpr int kMaxBatch = 9;
+  for (int s = 0; s < 30000; ++s) {
+    const auto count = static_cast<size_t>(batch(r.rng));
+    const double mu = std::abs(r()), lambda = std::abs(r());
+    Quat q[kMaxBatch];
+    Mat3 F[kMaxBatch], Dm_inv[kMaxBatch], H[kMaxBatch];
+    double volume[kMaxBatch], energy[kMaxBatch];
+    for (size_t l = 0; l < count; ++l) {
+      q[l] = Quat(r.unit(r.rng), r.unit(r.rng), r.unit(r.rng), r.unit(r.rng));
+      q[l].normalize();
+      F[l] = r.matrix();
+      Dm_inv[l] = r.matrix();
+      volume[l] = std::abs(r());
+    }
+    element_forces_avx2(q, F, Dm_inv, volume, mu, lambda, count, energy, H);
+    for (size_t l = 0; l < count; ++l) {
+      const Mat3 R = q[l].toRotationMatrix();
+      const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
+      const Mat3 FmR = F[l] - R;
+      const double expected_energy = volume[l] * (mu * FmR.squaredNorm() + 0.5 * lambda * trace * trace);
+      const Mat3 P = 2.0 * mu * FmR + lambda * trace * R;
+      const Mat3 expected = -volume[l] * P * Dm_inv[l].transpose();
+      ASSERT_EQ(std::memcmp(&energy[l], &expected_energy, sizeof(double)), 0)
+          << "sample " << s << " tet " << l << " of " << count << ": " << energy[l] << " vs " << expected_energy;
+      ASSERT_TRUE(same_bits(H[l], expected)) << "sample " << s << " tet " << l << " of " << count << "\n"
+                                             << H[l] - expected;
+    }
+  }
+}
+
+// Session 11: rotated_gradients_avx2 and rotated_gradients_at_avx2 (the K' reuse step's moved tets,
+// by index) run four tets per call in lanes; batches of 1 to 9 (lanes, the tail and their seam),
+// indices drawn without repetition from 16 tets, every gradient against the scalar R Dm^-T and the
+// tets not asked for untouched.
+TEST(TetGradientKernels, RotatedGradientsInTetLanesEqualTheScalarProductBitForBit) {
+  if (!tet_gradient_kernels_available()) GTEST_SKIP() << "kernels off (no AVX2, or a native build)";
+  RandomEntries r;
+  std::uniform_int_distribution<int> batch(1, 9);
+  constexpr size_t kTets = 16;
+  std::vector<int> order(kTets);
+  for (int s = 0; s < 20000; ++s) {
+    Quat q[kTets];
+    Mat3 Dm_inv[kTets], expected[kTets], G[kTets], G_at[kTets];
+    for (size_t t = 0; t < kTets; ++t) {
+      q[t] = Quat(r.unit(r.rng), r.unit(r.rng), r.unit(r.rng), r.unit(r.rng));
+      q[t].normalize();
+      Dm_inv[t] = r.matrix();
+      expected[t] = q[t].toRotationMatrix() * Dm_inv[t].transpose();
+      G[t] = G_at[t] = Mat3::Constant(7.0);
+    }
+    const auto count = static_cast<size_t>(batch(r.rng));
+    rotated_gradients_avx2(q, Dm_inv, count, G);
+    for (size_t t = 0; t < kTets; ++t) {
+      ASSERT_TRUE(same_bits(G[t], t < count ? expected[t] : Mat3(Mat3::Constant(7.0))))
+          << "sample " << s << " tet " << t << " of " << count;
+    }
+    for (size_t t = 0; t < kTets; ++t) order[t] = static_cast<int>(t);
+    std::shuffle(order.begin(), order.end(), r.rng);
+    rotated_gradients_at_avx2(q, Dm_inv, order.data(), count, G_at);
+    std::vector<char> asked(kTets, 0);
+    for (size_t l = 0; l < count; ++l) asked[static_cast<size_t>(order[l])] = 1;
+    for (size_t t = 0; t < kTets; ++t) {
+      ASSERT_TRUE(same_bits(G_at[t], asked[t] != 0 ? expected[t] : Mat3(Mat3::Constant(7.0))))
+          << "sample " << s << " tet " << t << " (by index), " << count << " asked";
+    }
   }
 }
 
