@@ -843,6 +843,12 @@ void CorotationalFem::set_vector_kernels(bool on) {
   vector_kernels_ = on && stiffness_row_kernels_available() && rotation_batch_avx2_available();
 }
 
+void CorotationalFem::swap_diagonal_blocks_and_inverses() {
+  for (size_t i = 0; i < preconditioner_.size(); ++i) {
+    std::swap(blocks_[static_cast<size_t>(diagonal_blocks_[i])], preconditioner_[i]);
+  }
+}
+
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)
 // in Eisenstat's form (Eisenstat 1981; Saad, Iterative Methods for Sparse Linear Systems, 9.2.3):
 // with A = (D + L) + (D + L^T) - D, the product A p needs no pass of its own. The recurrences run on
@@ -872,15 +878,22 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   int it = 0;
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n};
+  // The fused iteration (session 11) reads D_i^-1 from the slot of K'_ii, which the sweeps skip:
+  // swapped in for the loop and back after it, so the blocks and the inverses stream as one array.
+  if (fused_sweeps_) swap_diagonal_blocks_and_inverses();
+  FusedIterationCarry carry{false, 0.0, 0.0, rhs_.data()->data(), dv_.data()->data()};
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     double pq = 0.0, rz_next = 0.0, a = 0.0;
-    if (fused_sweeps_) {  // the same iteration, AVX2/FMA (fused_ssor_kernels.h)
-      pq = fused_eisenstat_sweeps(fused, p_.data()->data(), z_.data()->data(), q_.data()->data(), kv_.data()->data());
+    if (fused_sweeps_) {  // the same iteration, AVX2/FMA (fused_ssor_kernels.h); q over kv_
+      fused_backward_sweep(fused, carry, p_.data()->data(), z_.data()->data(), kv_.data()->data());
+      carry.pending = false;
+      pq = fused_forward_sweep(fused, p_.data()->data(), z_.data()->data(), kv_.data()->data());
       if (!(pq > 0.0)) break;
       a = rz / pq;
-      rz_next = fused_cg_update(fused, a, z_.data()->data(), q_.data()->data(), dv_.data()->data(),
-                                r_.data()->data(), rhs_.data()->data());
+      rz_next = fused_residual_update(fused, a, kv_.data()->data(), r_.data()->data(), rhs_.data()->data());
+      carry.pending = true;  // dv += a z: by the next backward sweep, or after the loop
+      carry.a = a;
     } else {
       sweeps.backward(p_.data(), z_.data());  // t
       sweeps.forward([&](size_t i) { return Vec3(p_[i] - diagonal_system_blocks_[i] * z_[i]); },
@@ -909,10 +922,14 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     const double b = rz_next / rz;
     rz = rz_next;
     if (fused_sweeps_) {
-      fused_direction_update(n, rhs_.data()->data(), b, p_.data()->data());
+      carry.b = b;  // p = Dr + b p: by the next backward sweep (p is scratch after the loop)
     } else {
       for (size_t i = 0; i < n; ++i) p_[i] = rhs_[i] + b * p_[i];
     }
+  }
+  if (fused_sweeps_) {
+    if (carry.pending) fused_solution_update(n, carry.a, z_.data()->data(), dv_.data()->data());
+    swap_diagonal_blocks_and_inverses();
   }
   return {it, residual};
 }

@@ -275,6 +275,9 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Vec3> constraint_normal_;  ///< solve_constrained scratch: active unit normals (0: free)
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
   std::vector<Mat3> diagonal_system_blocks_;  ///< D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii (I: fixed)
+  /// Exchanges K'_ii (blocks_) and D_i^-1 (preconditioner_) for every row: the fused SSOR
+  /// iteration reads D_i^-1 where its sweeps skip K'_ii (session 11); a second call restores both.
+  void swap_diagonal_blocks_and_inverses();
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
   bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: ModelSettings::fused_sweeps where available)
   bool vector_kernels_ = false;  ///< set_vector_kernels (the constructor: on where available)

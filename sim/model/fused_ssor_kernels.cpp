@@ -164,6 +164,89 @@ PLIANT_AVX2_FMA void fused_direction_update(size_t n, const double* Dr, double b
   for (; k < m; ++k) p[k] = Dr[k] + b * p[k];
 }
 
+// Session 11: the passes of one iteration re-cut (fused_ssor_kernels.h). Every value is computed
+// by the expression the session-8 kernels above use for it, on the same inputs: the per-row
+// triples are independent lane operations, and the two reductions (p . q, r . Dr) still run over
+// rows ascending in the same order.
+PLIANT_AVX2_FMA void fused_backward_sweep(const FusedSsorSystem& sys, const FusedIterationCarry& carry, double* p,
+                                          double* t, double* acc) {
+  constexpr size_t kPrefetchRows = 8;
+  const double* blocks = sys.blocks;
+  const int* cols = sys.cols;
+  const int* offsets = sys.offsets;
+  const __m256d s = _mm256_set1_pd(sys.s), a = _mm256_set1_pd(carry.a), b = _mm256_set1_pd(carry.b);
+  const __m256d zero = _mm256_setzero_pd();
+  for (size_t i = sys.n; i-- > 0;) {
+    __m256d pi;
+    if (carry.pending) {  // fused_direction_update's and fused_cg_update's lanes for row i
+      pi = _mm256_fmadd_pd(b, load3(p + 3 * i), load3(carry.Dr + 3 * i));
+      store3(p + 3 * i, pi);
+      store3(carry.dv + 3 * i, _mm256_fmadd_pd(a, load3(t + 3 * i), load3(carry.dv + 3 * i)));
+    } else {
+      pi = load3(p + 3 * i);
+    }
+    store3(acc + 3 * i, zero);
+    if (sys.fixed[i] != 0) {
+      store3(t + 3 * i, pi);
+      continue;
+    }
+    if (i >= kPrefetchRows) {
+      const size_t k = i - kPrefetchRows;
+      const auto* line = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k]));
+      const auto* end = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k + 1]));
+      for (; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
+    }
+    const auto first = static_cast<size_t>(offsets[i]);
+    const __m256d g = gather(blocks, cols, first + 1, static_cast<size_t>(offsets[i + 1]), t);
+    store3(t + 3 * i, mat_vec(blocks + 9 * first, _mm256_fnmadd_pd(s, g, pi)));
+  }
+}
+
+PLIANT_AVX2_FMA double fused_forward_sweep(const FusedSsorSystem& sys, const double* p, const double* t,
+                                           double* acc_q) {
+  const double* blocks = sys.blocks;
+  const int* cols = sys.cols;
+  const int* offsets = sys.offsets;
+  const __m256d s = _mm256_set1_pd(sys.s);
+  __m256d pq = _mm256_setzero_pd();
+  for (size_t i = 0; i < sys.n; ++i) {
+    const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
+    const __m256d u = _mm256_sub_pd(pi, mat_vec(sys.D + 9 * i, ti));
+    if (sys.fixed[i] != 0) {  // y = u, nothing sent
+      const __m256d qi = _mm256_add_pd(ti, u);
+      store3(acc_q + 3 * i, qi);
+      pq = _mm256_fmadd_pd(pi, qi, pq);
+      continue;
+    }
+    const auto first = static_cast<size_t>(offsets[i]);
+    const __m256d y = clear_lane3(mat_vec(blocks + 9 * first, _mm256_sub_pd(u, load3(acc_q + 3 * i))));
+    const __m256d qi = _mm256_add_pd(ti, y);
+    store3(acc_q + 3 * i, qi);
+    pq = _mm256_fmadd_pd(pi, qi, pq);
+    scatter(blocks, cols, first + 1, static_cast<size_t>(offsets[i + 1]), _mm256_mul_pd(s, y), acc_q);
+  }
+  return horizontal_sum(pq);
+}
+
+PLIANT_AVX2_FMA double fused_residual_update(const FusedSsorSystem& sys, double a, const double* q, double* r,
+                                             double* Dr) {
+  const __m256d av = _mm256_set1_pd(a);
+  __m256d rz = _mm256_setzero_pd();
+  for (size_t i = 0; i < sys.n; ++i) {
+    const __m256d ri = _mm256_fnmadd_pd(av, load3(q + 3 * i), load3(r + 3 * i));
+    store3(r + 3 * i, ri);
+    const __m256d di = mat_vec(sys.D + 9 * i, ri);
+    store3(Dr + 3 * i, di);
+    rz = _mm256_fmadd_pd(ri, di, rz);
+  }
+  return horizontal_sum(rz);
+}
+
+PLIANT_AVX2_FMA void fused_solution_update(size_t n, double a, const double* z, double* dv) {
+  const __m256d av = _mm256_set1_pd(a);
+  for (size_t i = 0; i < n; ++i) store3(dv + 3 * i, _mm256_fmadd_pd(av, load3(z + 3 * i), load3(dv + 3 * i)));
+}
+
 #else
 
 bool fused_sweeps_available() { return false; }
@@ -177,6 +260,14 @@ double fused_cg_update(const FusedSsorSystem&, double, const double*, const doub
 }
 
 void fused_direction_update(size_t, const double*, double, double*) {}
+
+void fused_backward_sweep(const FusedSsorSystem&, const FusedIterationCarry&, double*, double*, double*) {}
+
+double fused_forward_sweep(const FusedSsorSystem&, const double*, const double*, double*) { return 0.0; }
+
+double fused_residual_update(const FusedSsorSystem&, double, const double*, double*, double*) { return 0.0; }
+
+void fused_solution_update(size_t, double, const double*, double*) {}
 
 #endif
 

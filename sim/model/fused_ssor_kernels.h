@@ -52,4 +52,42 @@ double fused_cg_update(const FusedSsorSystem& sys, double a, const double* z, co
 /// p = Dr + b p (the next direction). Only where fused_sweeps_available().
 void fused_direction_update(size_t n, const double* Dr, double b, double* p);
 
+// Session 11 (issue #3): the same iteration in three passes instead of four (plus a memset), the
+// same operations on the same values in the same order, so the iterates are the ones of
+// fused_eisenstat_sweeps + fused_cg_update + fused_direction_update bit for bit (those stay as
+// the composition the tests compare against). What moved: the previous iteration's dv += a z and
+// p = Dr + b p into the backward sweep (which reads p_i and overwrites z_i = t_i at row i anyway),
+// the forward sweep's accumulator zeroed there too (no memset), q written over the accumulator
+// (row i reads acc_i once, then only rows > i are sent to), and D_i^-1 read from the diagonal
+// block's slot of row i (the caller swaps it in for the solve): the backward sweep streams the
+// blocks and the inverses as one array, and the forward sweep one array fewer.
+
+/// The previous iteration's vector updates that the next backward sweep applies as it passes:
+/// dv += a z and p = Dr + b p (both only when `pending`).
+struct FusedIterationCarry {
+  bool pending = false;      ///< false in the first iteration of a solve
+  double a = 0.0;            ///< the previous step length
+  double b = 0.0;            ///< the previous direction factor
+  const double* Dr = nullptr;  ///< D r~ of the previous iteration (n packed triples)
+  double* dv = nullptr;        ///< the solution, advanced by a z
+};
+
+/// Backward sweep t = (D + L^T)^-1 p with D_i^-1 in the diagonal slot blocks + 9 offsets[i] (not
+/// sys.D_inverse); before row i uses p_i and overwrites t_i: dv_i += a t_i, p_i = Dr_i + b p_i
+/// (carry.pending), and acc_i = 0 for the forward sweep. Only where fused_sweeps_available().
+void fused_backward_sweep(const FusedSsorSystem& sys, const FusedIterationCarry& carry, double* p, double* t,
+                          double* acc);
+
+/// Forward sweep q = t + (D + L)^-1 (p - D t), D_i^-1 from the diagonal slot as above, q written
+/// over acc (zeroed by the backward sweep); returns p . q. Only where fused_sweeps_available().
+double fused_forward_sweep(const FusedSsorSystem& sys, const double* p, const double* t, double* acc_q);
+
+/// r -= a q, Dr = D r; returns r . Dr (fused_cg_update without its dv update). Only where
+/// fused_sweeps_available().
+double fused_residual_update(const FusedSsorSystem& sys, double a, const double* q, double* r, double* Dr);
+
+/// dv += a z, the update a solve's last iteration leaves to the end. Only where
+/// fused_sweeps_available().
+void fused_solution_update(size_t n, double a, const double* z, double* dv);
+
 }  // namespace pliant
