@@ -10,7 +10,6 @@
 // is the start of the next, still in L2); 3 rows of 576 bytes (the beam's mean K' row: ~6.6 upper
 // blocks of 72 bytes and the diagonal one) descending, each read ascending (the backward sweep's
 // stream, which the hardware prefetcher follows less well).
-// Write: every double of the buffer set (a store stream, as the sweeps' vector outputs).
 // Run: build/bench/memory_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
@@ -132,19 +131,5 @@ void BM_Read(benchmark::State& state) {
 BENCHMARK(BM_Read)
     ->ArgsProduct({{64, 256, 512, 1024, 2048, 4096, 32768}, {0, 1, 2, 3}})
     ->ArgNames({"kb", "direction"});
-
-void BM_Write(benchmark::State& state) {
-  const auto bytes = static_cast<size_t>(state.range(0)) * 1024;
-  Buffer buffer(bytes);
-  double value = 0.0;
-  for (auto _ : state) {
-    value += 1.0;
-    for (size_t k = 0; k < buffer.n; ++k) buffer.data[k] = value;
-    benchmark::ClobberMemory();
-  }
-  state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) *
-                          static_cast<int64_t>(buffer.n * sizeof(double)));
-}
-BENCHMARK(BM_Write)->Arg(64)->Arg(256)->Arg(1024)->Arg(4096)->ArgName("kb");
 
 }  // namespace
