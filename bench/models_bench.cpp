@@ -12,10 +12,13 @@
 // Run: build-models/bench/models_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
+#include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/teschner_explicit.h"
 
 namespace pliant {
@@ -217,6 +220,78 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
                             : "assembled, ssor, scalar fixed part");
 }
 BENCHMARK(BM_CorotationalImplicitStep)->DenseRange(0, 7)->Unit(benchmark::kMillisecond);
+
+// One SSOR-PCG iteration alone (session 11, issue #3): the fused kernels (fused_ssor_kernels.h)
+// on a beam's block pattern (upper triangle) and fixed vertices. cells 75: the benchmark beam,
+// 1,900 rows, 12,231 blocks with the diagonal ones, ~1.5 MB in all; cells 15: 400 rows, ~0.3 MB,
+// inside a core's 512 KB L2; cells 300: 7,525 rows, ~6 MB, from L3. The iteration as the solver
+// runs it (session 8: backward + forward sweep, CG update, direction update, a memset; session
+// 11 measured a three-pass cut at no gain, docs/deformation-models.md). The values are random (what is timed does not depend on them;
+// a = b = 0 keeps them from growing, and an FMA by 0 costs what any other does).
+// bytes_per_second: the bytes each cut reads and writes per iteration (arrays counted once per
+// pass, read-modify-write twice; the gathered t_j and scattered acc_j hit L1, counted once) over
+// its time, the effective bandwidth to set against memory_bench; ns_per_row: time per row.
+void BM_SsorIteration(benchmark::State& state) {
+  if (!fused_sweeps_available()) {
+    state.SkipWithError("no AVX2/FMA on this CPU");
+    return;
+  }
+  Beam beam;
+  if (state.range(0) != 75) {
+    beam.mesh = make_box_mesh({Vec3(1.0, 0.08, 0.08), static_cast<int>(state.range(0)), 4, 4});
+    beam.x = beam.mesh->rest_positions();
+    beam.fixed.assign(beam.x.size(), 0);
+    for (size_t i = 0; i < beam.x.size(); ++i) beam.fixed[i] = beam.x[i].x() < -0.5 + 1e-12 ? 1 : 0;
+  }
+  const size_t n = beam.x.size();
+  std::vector<int> offsets{0}, cols;
+  for (size_t i = 0; i < n; ++i) {
+    std::vector<int> row{static_cast<int>(i)};
+    for (int j : beam.mesh->vertex_neighbors(static_cast<int>(i))) {
+      if (j > static_cast<int>(i) && beam.fixed[i] == 0) row.push_back(j);
+    }
+    std::sort(row.begin() + 1, row.end());
+    cols.insert(cols.end(), row.begin(), row.end());
+    offsets.push_back(static_cast<int>(cols.size()));
+  }
+  std::vector<double> blocks(9 * cols.size()), D(9 * n), D_inverse(9 * n);
+  for (size_t k = 0; k < blocks.size(); ++k) blocks[k] = 1e-3 * std::sin(static_cast<double>(k));
+  for (size_t i = 0; i < n; ++i) {
+    const Mat3 d = Mat3::Identity() * 4.0 + Mat3::Constant(0.5);
+    const Mat3 inverse = d.inverse();
+    std::copy(d.data(), d.data() + 9, D.begin() + 9 * static_cast<long>(i));
+    std::copy(inverse.data(), inverse.data() + 9, D_inverse.begin() + 9 * static_cast<long>(i));
+  }
+  const FusedSsorSystem system{blocks.data(), cols.data(), offsets.data(), D.data(), D_inverse.data(),
+                               beam.fixed.data(), 1e-4, n};
+  std::vector<double> p(3 * n, 1.0), t(3 * n), q(3 * n), acc(3 * n), dv(3 * n), r(3 * n, 1.0), Dr(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    if (beam.fixed[i] != 0) std::fill_n(p.begin() + 3 * static_cast<long>(i), 3, 0.0);
+  }
+  double sum = 0.0;
+  for (auto _ : state) {
+    sum += fused_eisenstat_sweeps(system, p.data(), t.data(), q.data(), acc.data());
+    sum += fused_cg_update(system, 0.0, t.data(), q.data(), dv.data(), r.data(), Dr.data());
+    fused_direction_update(n, Dr.data(), 0.0, p.data());
+  }
+  benchmark::DoNotOptimize(sum);
+  // Bytes per iteration: B blocks (with the diagonal slots, which share their cache lines), C
+  // column indices, M = 9 doubles per row (D or D^-1), V = one packed vector.
+  const double B = 72.0 * static_cast<double>(cols.size()), C = 4.0 * static_cast<double>(cols.size()),
+               M = 72.0 * static_cast<double>(n), V = 24.0 * static_cast<double>(n);
+  // Backward B + C + M + p + t; memset acc; forward B + C + 2M + p + t + 2 acc + q; CG update
+  // t + 2 dv + q + 2 r + M + Dr; direction Dr + 2 p.
+  const double bytes = 2 * B + 2 * C + 4 * M + 18 * V;
+  state.counters["bytes_per_iteration"] = bytes;
+  state.counters["ns_per_row"] = benchmark::Counter(static_cast<double>(n) * 1e-9,
+                                                    benchmark::Counter::kIsIterationInvariantRate |
+                                                        benchmark::Counter::kInvert);
+  state.SetBytesProcessed(static_cast<int64_t>(static_cast<double>(state.iterations()) * bytes));
+}
+BENCHMARK(BM_SsorIteration)
+    ->ArgsProduct({{15, 75, 300}})
+    ->ArgNames({"cells"})
+    ->Unit(benchmark::kMicrosecond);
 
 // The same step solved to a relative residual instead of a fixed iteration count (session 4): arg
 // 0 to the residual that 20 block-Jacobi iterations reach on this step (measured 0.428, see
