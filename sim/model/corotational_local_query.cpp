@@ -34,11 +34,17 @@
 //   pass's path since session 6), then sum per vertex. The warm starts (rotations_) are not
 //   written by a query, so the order of the extractions cannot change a result: the forces are
 //   the one-tet-at-a-time query's, bit for bit.
+// - The full pass's AVX2 kernels (session 11): with vector kernels on (CorotationalFem's default
+//   where the CPU has AVX2) the queries extract four rotations per batch in ymm registers
+//   (extract_rotations_batch_avx2) and compute F = Ds Dm^-1 with deformation_gradients_avx2; both
+//   are the scalar code's bits per tet, so the forces are unchanged bit for bit.
 #include <algorithm>
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
+#include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
+#include "sim/model/tet_gradient_kernels.h"
 
 namespace pliant {
 
@@ -102,16 +108,24 @@ std::pair<size_t, bool> CorotationalFem::local_query_slot(size_t t) {
   return {slot, true};
 }
 
+Mat3 CorotationalFem::query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels) const {
+  if (!kernels) return deformation_gradient(x, static_cast<int>(t));
+  Mat3 F;  // the same bits in AVX2 lanes (tet_gradient_kernels.h), one tet per call: the query's tets are scattered
+  deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t], &rest_shape_inverse_[t], 1, &F);
+  return F;
+}
+
 void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
                                          std::span<Vec3> f) {
   begin_local_query();
   query_pending_.clear();
+  const bool gradient_kernels = vector_kernels_ && tet_gradient_kernels_available();
   for (const int v : vertices) {
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      query_forces_[slot] = deformation_gradient(x, t);  // F, until the extraction below
+      query_forces_[slot] = query_deformation_gradient(x, ts, gradient_kernels);  // F, until the extraction below
       query_pending_.push_back(t);
     }
   }
@@ -144,26 +158,35 @@ Mat3 CorotationalFem::exact_query_stress(size_t t, const Mat3& F) {
 }
 
 void CorotationalFem::exact_query_stresses_batched() {
-  constexpr auto L = static_cast<size_t>(kRotationBatchLanes);
+  // Four lanes in AVX2 registers where the CPU has them (the full pass's extraction, session 11),
+  // else kRotationBatchLanes. Each lane is the scalar extraction bit for bit whatever else shares
+  // the batch, so a short last batch is filled up with copies of its last tet (results discarded).
+  const size_t L = evaluation_batch_lanes();
   const size_t count = query_pending_.size();
+  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  Quat q[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
   size_t i = 0;
-  for (; i + L <= count; i += L) {
-    Mat3 F[L];
-    Quat q[L];
+  for (; i < count; i += L) {
+    const size_t lanes = std::min(L, count - i);
+    if (lanes < L && !vector_kernels_) break;  // the code before: the last few one at a time
     for (size_t l = 0; l < L; ++l) {
-      const auto t = static_cast<size_t>(query_pending_[i + l]);
+      const auto t = static_cast<size_t>(query_pending_[i + std::min(l, lanes - 1)]);
       F[l] = query_forces_[static_cast<size_t>(query_slot_[t])];
       q[l] = rotations_[t];  // warm start; the stored rotation is left as it is
     }
-    extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);
-    for (size_t l = 0; l < L; ++l) {
+    if (vector_kernels_) {
+      extract_rotations_batch_avx2(F, q, kElementRotationIterations, kElementRotationTolerance);
+    } else {
+      extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);
+    }
+    for (size_t l = 0; l < lanes; ++l) {
       const auto t = static_cast<size_t>(query_pending_[i + l]);
       const Mat3 R = q[l].toRotationMatrix();
       remember_rotation(t, F[l], R);
       query_forces_[static_cast<size_t>(query_slot_[t])] = first_piola(F[l], R);
     }
   }
-  for (; i < count; ++i) {  // the last few one at a time
+  for (; i < count; ++i) {
     const auto t = static_cast<size_t>(query_pending_[i]);
     Mat3& slot = query_forces_[static_cast<size_t>(query_slot_[t])];
     slot = exact_query_stress(t, Mat3(slot));
@@ -192,12 +215,13 @@ void CorotationalFem::internal_forces_at_nearby_rotations(std::span<const Vec3> 
   begin_local_query();
   query_pending_.clear();
   const double tolerance_sq = rotation_tolerance * rotation_tolerance;
+  const bool gradient_kernels = vector_kernels_ && tet_gradient_kernels_available();
   for (const int v : vertices) {
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      const Mat3 F = deformation_gradient(x, t);
+      const Mat3 F = query_deformation_gradient(x, ts, gradient_kernels);
       const bool nearby = nearby_cached_[ts] != 0 &&
                           (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
       // Within the tolerance: the frozen query's stress with the remembered rotation. Else F waits

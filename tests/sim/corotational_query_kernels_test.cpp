@@ -1,0 +1,70 @@
+// The local force queries with the full pass's AVX2 kernels (session 11,
+// sim/model/corotational_local_query.cpp: four-lane rotation batches, F in lanes) against the same
+// queries with the kernels switched off (set_vector_kernels(false), the code before): each lane is
+// the scalar code's operations in its order, so the forces must be the scalar path's bit for bit,
+// whatever the number of tets a query touches (short last batches are filled up with copies) and
+// wherever the warm start faces away (inverted tets: the SVD start). Skipped without AVX2.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <random>
+
+#include "sim/model/corotational_fem.h"
+#include "sim/model/rotation_batch_avx2.h"
+#include "support/sagging_cantilever.h"
+
+namespace pliant {
+namespace {
+
+bool same_bits(std::span<const Vec3> a, std::span<const Vec3> b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+}
+
+// A soft cantilever (E = 1e4 Pa) swinging under gravity: large rotations, so the queries'
+// extractions take several Newton iterations from the stored warm starts.
+struct Cantilever : SaggingCantilever {
+  Cantilever() : SaggingCantilever(0.6, 0.06, 24, 3, 1e4) {}
+};
+
+// Queries of 1 .. 40 vertices (every remainder of the four-lane batches) at positions moved from
+// the stepped state, mildly (one Newton step) and strongly (inverted tets), exact and with nearby
+// rotations (tolerance 1e-3: reuse and re-extraction mixed): the vector model's forces are the
+// scalar model's bit for bit, and so are the rotations each remembers (the next nearby query).
+TEST(LocalQueryVectorKernels, ExactAndNearbyQueriesAreTheScalarQueriesBitForBit) {
+  if (!rotation_batch_avx2_available()) GTEST_SKIP() << "no AVX2 on this CPU";
+  Cantilever a, b;
+  CorotationalFem vector(a.mesh, a.m, {}), scalar(b.mesh, b.m, {});
+  scalar.set_vector_kernels(false);
+  ASSERT_TRUE(vector.vector_kernels());
+  std::mt19937 rng(11);
+  for (int s = 0; s < 6; ++s) {
+    a.step(vector);
+    b.step(scalar);
+    ASSERT_TRUE(same_bits(a.x, b.x)) << "step " << s;
+    for (const double move : {1e-5, 3e-3, 4e-2}) {  // 4e-2 m: beyond a cell edge, tets inverted
+      std::uniform_real_distribution<double> u(-move, move);
+      for (size_t count = 1; count <= 40; count += (count < 9 ? 1 : 7)) {
+        std::vector<int> vertices;
+        std::uniform_int_distribution<int> pick(0, static_cast<int>(a.n) - 1);
+        for (size_t k = 0; k < count; ++k) vertices.push_back(pick(rng));
+        std::sort(vertices.begin(), vertices.end());
+        vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+        std::vector<Vec3> x = a.x;
+        for (const int v : vertices) x[static_cast<size_t>(v)] += Vec3(u(rng), u(rng), u(rng));
+        std::vector<Vec3> fa(vertices.size()), fb(vertices.size());
+        vector.internal_forces_at(x, vertices, fa);
+        scalar.internal_forces_at(x, vertices, fb);
+        ASSERT_TRUE(same_bits(fa, fb)) << "exact query, step " << s << ", move " << move << ", " << count;
+        // Moved again by a tenth: the nearby query reuses some remembered rotations, re-extracts others.
+        for (const int v : vertices) x[static_cast<size_t>(v)] += 0.1 * Vec3(u(rng), u(rng), u(rng));
+        vector.internal_forces_at_nearby_rotations(x, vertices, fa, 1e-3);
+        scalar.internal_forces_at_nearby_rotations(x, vertices, fb, 1e-3);
+        ASSERT_TRUE(same_bits(fa, fb)) << "nearby query, step " << s << ", move " << move << ", " << count;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pliant
