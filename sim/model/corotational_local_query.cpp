@@ -36,12 +36,14 @@
 //   the one-tet-at-a-time query's, bit for bit.
 // - The full pass's AVX2 kernels (session 11): with vector kernels on (CorotationalFem's default
 //   where the CPU has AVX2) the queries extract four rotations per batch in ymm registers
-//   (extract_rotations_batch_avx2) and compute F = Ds Dm^-1 with deformation_gradients_avx2; both
-//   are the scalar code's bits per tet, so the forces are unchanged bit for bit.
+//   (extract_rotations_batch_avx2) and compute F = Ds Dm^-1 with deformation_gradients_avx2, P and
+//   the per-vertex sums -V P g_j with query_stress_kernels.h; each is the scalar code's bits per
+//   tet and per vertex, so the forces are unchanged bit for bit.
 #include <algorithm>
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
+#include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/model/tet_gradient_kernels.h"
@@ -134,6 +136,16 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
 }
 
 void CorotationalFem::sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const {
+  if (vector_kernels_ && query_stress_kernels_available()) {  // the sums below, bit for bit (query_stress_kernels.h)
+    static_assert(sizeof(TetCorner) == 2 * sizeof(int), "corners walked by a stride of two ints");
+    for (size_t k = 0; k < vertices.size(); ++k) {
+      const auto v = static_cast<size_t>(vertices[k]);
+      const auto first = static_cast<size_t>(corner_offsets_[v]), last = static_cast<size_t>(corner_offsets_[v + 1]);
+      corner_stress_sum_avx2(&(corners_.data() + first)->tet, 2, corner_gradients_.data() + first, last - first,
+                             query_slot_.data(), query_forces_.data(), volume_.data(), f[k].data());
+    }
+    return;
+  }
   for (size_t k = 0; k < vertices.size(); ++k) {
     const auto v = static_cast<size_t>(vertices[k]);
     Vec3 sum = Vec3::Zero();
@@ -165,6 +177,8 @@ void CorotationalFem::exact_query_stresses_batched() {
   const size_t count = query_pending_.size();
   Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
   Quat q[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  Mat3 R[kRotationBatchLanesAvx2], P[kRotationBatchLanesAvx2];
+  const bool stress_kernels = vector_kernels_ && query_stress_kernels_available();
   size_t i = 0;
   for (; i < count; i += L) {
     const size_t lanes = std::min(L, count - i);
@@ -178,6 +192,15 @@ void CorotationalFem::exact_query_stresses_batched() {
       extract_rotations_batch_avx2(F, q, kElementRotationIterations, kElementRotationTolerance);
     } else {
       extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);
+    }
+    if (stress_kernels) {  // first_piola's bits in lanes (query_stress_kernels.h)
+      first_piola_stresses_avx2(q, F, mu_, lambda_, lanes, R, P);
+      for (size_t l = 0; l < lanes; ++l) {
+        const auto t = static_cast<size_t>(query_pending_[i + l]);
+        remember_rotation(t, F[l], R[l]);
+        query_forces_[static_cast<size_t>(query_slot_[t])] = P[l];
+      }
+      continue;
     }
     for (size_t l = 0; l < lanes; ++l) {
       const auto t = static_cast<size_t>(query_pending_[i + l]);
