@@ -45,6 +45,7 @@
 #include "sim/model/corotational_fem.h"
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/stiffness_product_kernels.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/model/tet_gradient_kernels.h"
 
@@ -323,7 +324,16 @@ bool CorotationalFem::stiffness_product_at(std::span<const int> moved, std::span
     if (d[k].norm() * vertex_gradient_bound_[static_cast<size_t>(moved[k])] > strain_tolerance) return false;
   }
   for (size_t k = 0; k < moved.size(); ++k) product_entry_[static_cast<size_t>(moved[k])] = static_cast<int>(k);
-  for (size_t k = 0; k < moved.size(); ++k) {
+  const bool row_kernels = vector_kernels_ && stiffness_product_kernels_available();
+  if (row_kernels) {  // the scalar loop's sums bit for bit, in AVX2 lanes (stiffness_product_kernels.h)
+    for (size_t k = 0; k < moved.size(); ++k) {
+      const auto j = static_cast<size_t>(moved[k]);
+      const auto first = static_cast<size_t>(block_row_offsets_[j]), last = static_cast<size_t>(block_row_offsets_[j + 1]);
+      stiffness_row_product_avx2(blocks_.data() + first, block_cols_.data() + first, last - first, j, d[k],
+                                 product_entry_.data(), d.data(), product_sum_.data()->data());
+    }
+  }
+  for (size_t k = 0; k < moved.size() && !row_kernels; ++k) {
     const auto j = static_cast<size_t>(moved[k]);
     const Vec3& dj = d[k];
     const auto first = static_cast<size_t>(block_row_offsets_[j]), last = static_cast<size_t>(block_row_offsets_[j + 1]);

@@ -1,6 +1,7 @@
 // The local force queries with the full pass's AVX2 kernels (session 11,
 // sim/model/corotational_local_query.cpp: four-lane rotation batches, F, P and the per-vertex sums
-// -V P g_j in lanes, query_stress_kernels.h) against the same
+// -V P g_j in lanes, query_stress_kernels.h; the search's K' products, stiffness_product_kernels.h)
+// against the same
 // queries with the kernels switched off (set_vector_kernels(false), the code before): each lane is
 // the scalar code's operations in its order, so the forces must be the scalar path's bit for bit,
 // whatever the number of tets a query touches (short last batches are filled up with copies) and
@@ -14,6 +15,7 @@
 #include "sim/model/corotational_fem.h"
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/stiffness_product_kernels.h"
 #include "support/sagging_cantilever.h"
 
 namespace pliant {
@@ -59,6 +61,19 @@ void expect_vector_queries_are_the_scalar_queries() {
     a.step(vector);
     b.step(scalar);
     ASSERT_TRUE(same_bits(a.x, b.x)) << "step " << s;
+    {  // K' d at moved rows (the search's later iterations), every vertex moved or a random half
+      std::uniform_real_distribution<double> u(-1e-4, 1e-4);
+      std::bernoulli_distribution half(0.5);
+      std::vector<int> moved;
+      for (int i = 0; i < static_cast<int>(a.n); ++i) {
+        if (s % 2 == 0 || half(rng)) moved.push_back(i);
+      }
+      std::vector<Vec3> d(moved.size()), ya(moved.size()), yb(moved.size());
+      for (auto& di : d) di = Vec3(u(rng), u(rng), u(rng));
+      ASSERT_TRUE(vector.stiffness_product_at(moved, d, moved, ya, 1e9));
+      ASSERT_TRUE(scalar.stiffness_product_at(moved, d, moved, yb, 1e9));
+      ASSERT_TRUE(same_bits(ya, yb)) << "stiffness product, step " << s;
+    }
     for (const double move : {1e-5, 3e-3, 4e-2}) {  // 4e-2 m: beyond a cell edge, tets inverted
       std::uniform_real_distribution<double> u(-move, move);
       for (size_t count = 1; count <= 37; count += (count < 9 ? 1 : 7)) {
@@ -84,7 +99,9 @@ void expect_vector_queries_are_the_scalar_queries() {
 }
 
 TEST(LocalQueryVectorKernels, ExactAndNearbyQueriesAreTheScalarQueriesBitForBit) {
-  if (!rotation_batch_avx2_available() || !query_stress_kernels_available()) GTEST_SKIP() << "no AVX2 on this CPU";
+  if (!rotation_batch_avx2_available() || !query_stress_kernels_available() || !stiffness_product_kernels_available()) {
+    GTEST_SKIP() << "no AVX2 on this CPU";
+  }
   expect_vector_queries_are_the_scalar_queries<Cantilever>();
   expect_vector_queries_are_the_scalar_queries<JitteredCantilever>();
 }
