@@ -37,16 +37,17 @@
 // - The full pass's AVX2 kernels (session 11): with vector kernels on (CorotationalFem's default
 //   where the CPU has AVX2) the queries extract four rotations per batch in ymm registers
 //   (extract_rotations_batch_avx2) and compute F = Ds Dm^-1 with deformation_gradients_avx2, P and
-//   the per-vertex sums -V P g_j with query_stress_kernels.h; each is the scalar code's bits per
-//   tet and per vertex, so the forces are unchanged bit for bit.
+//   the per-vertex sums -V P g_j with query_stress_kernels.h, and the K' products with
+//   stiffness_product_kernels.h; each is the scalar code's bits per tet, vertex and row, so the
+//   forces are unchanged bit for bit (set_vector_kernels(false): the code before).
 #include <algorithm>
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
-#include "sim/model/stiffness_product_kernels.h"
 #include "sim/model/rotation_extraction.h"
+#include "sim/model/stiffness_product_kernels.h"
 #include "sim/model/tet_gradient_kernels.h"
 
 namespace pliant {
