@@ -115,7 +115,8 @@ class CorotationalFem final : public DeformationModel {
   bool fused_sweeps() const { return fused_sweeps_; }
   /// The step's fixed part in AVX2 lanes (session 9; on by default where the CPU has AVX2): K' rows
   /// (stiffness_row_kernels.h) and the evaluation pass's rotations four tets at a time
-  /// (rotation_batch_avx2.h), bit for bit the scalar code's results. false: the code before.
+  /// (rotation_batch_avx2.h), and since session 11 the local queries' rotations, F, P, sums and K'
+  /// products, bit for bit the scalar code's results. false: the code before.
   /// Ignored without AVX2.
   void set_vector_kernels(bool on);
   /// True when the fixed part runs the AVX2 kernels.
@@ -303,8 +304,12 @@ class CorotationalFem final : public DeformationModel {
   /// as it is) and remembered for nearby queries.
   Mat3 exact_query_stress(size_t t, const Mat3& F);
   /// Fills the slots of the tets in query_pending_ (their F parked in query_forces_) with the exact
-  /// query's stress, extracting kRotationBatchLanes rotations per call (bit for bit the scalar's).
+  /// query's stress, extracting four rotations per call with the vector kernels (else
+  /// kRotationBatchLanes; bit for bit the scalar's either way).
   void exact_query_stresses_batched();
+  /// Deformation gradient of tet t at x for a query: deformation_gradient's bits, in AVX2 lanes when
+  /// `kernels` (vector kernels on and tet_gradient_kernels_available()).
+  Mat3 query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels) const;
   /// f at `vertices` from the current query's slots: -V P g_j summed over each vertex's tets.
   void sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const;
   std::vector<int> query_pending_;      ///< tets of the current query waiting for an exact extraction

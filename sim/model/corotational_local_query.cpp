@@ -34,11 +34,21 @@
 //   pass's path since session 6), then sum per vertex. The warm starts (rotations_) are not
 //   written by a query, so the order of the extractions cannot change a result: the forces are
 //   the one-tet-at-a-time query's, bit for bit.
+// - The full pass's AVX2 kernels (session 11): with vector kernels on (CorotationalFem's default
+//   where the CPU has AVX2) the queries extract four rotations per batch in ymm registers
+//   (extract_rotations_batch_avx2) and compute F = Ds Dm^-1 with deformation_gradients_avx2, P and
+//   the per-vertex sums -V P g_j with query_stress_kernels.h, and the K' products with
+//   stiffness_product_kernels.h; each is the scalar code's bits per tet, vertex and row, so the
+//   forces are unchanged bit for bit (set_vector_kernels(false): the code before).
 #include <algorithm>
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
+#include "sim/model/query_stress_kernels.h"
+#include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
+#include "sim/model/stiffness_product_kernels.h"
+#include "sim/model/tet_gradient_kernels.h"
 
 namespace pliant {
 
@@ -102,16 +112,24 @@ std::pair<size_t, bool> CorotationalFem::local_query_slot(size_t t) {
   return {slot, true};
 }
 
+Mat3 CorotationalFem::query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels) const {
+  if (!kernels) return deformation_gradient(x, static_cast<int>(t));
+  Mat3 F;  // the same bits in AVX2 lanes (tet_gradient_kernels.h), one tet per call: the query's tets are scattered
+  deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t], &rest_shape_inverse_[t], 1, &F);
+  return F;
+}
+
 void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
                                          std::span<Vec3> f) {
   begin_local_query();
   query_pending_.clear();
+  const bool gradient_kernels = vector_kernels_ && tet_gradient_kernels_available();
   for (const int v : vertices) {
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      query_forces_[slot] = deformation_gradient(x, t);  // F, until the extraction below
+      query_forces_[slot] = query_deformation_gradient(x, ts, gradient_kernels);  // F, until the extraction below
       query_pending_.push_back(t);
     }
   }
@@ -120,6 +138,16 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
 }
 
 void CorotationalFem::sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const {
+  if (vector_kernels_ && query_stress_kernels_available()) {  // the sums below, bit for bit (query_stress_kernels.h)
+    static_assert(sizeof(TetCorner) == 2 * sizeof(int), "corners walked by a stride of two ints");
+    for (size_t k = 0; k < vertices.size(); ++k) {
+      const auto v = static_cast<size_t>(vertices[k]);
+      const auto first = static_cast<size_t>(corner_offsets_[v]), last = static_cast<size_t>(corner_offsets_[v + 1]);
+      corner_stress_sum_avx2(&(corners_.data() + first)->tet, 2, corner_gradients_.data() + first, last - first,
+                             query_slot_.data(), query_forces_.data(), volume_.data(), f[k].data());
+    }
+    return;
+  }
   for (size_t k = 0; k < vertices.size(); ++k) {
     const auto v = static_cast<size_t>(vertices[k]);
     Vec3 sum = Vec3::Zero();
@@ -144,26 +172,46 @@ Mat3 CorotationalFem::exact_query_stress(size_t t, const Mat3& F) {
 }
 
 void CorotationalFem::exact_query_stresses_batched() {
-  constexpr auto L = static_cast<size_t>(kRotationBatchLanes);
+  // Four lanes in AVX2 registers where the CPU has them (the full pass's extraction, session 11),
+  // else kRotationBatchLanes. Each lane is the scalar extraction bit for bit whatever else shares
+  // the batch, so a short last batch is filled up with copies of its last tet (results discarded).
+  const size_t L = evaluation_batch_lanes();
   const size_t count = query_pending_.size();
+  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  Quat q[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  Mat3 R[kRotationBatchLanesAvx2], P[kRotationBatchLanesAvx2];
+  const bool stress_kernels = vector_kernels_ && query_stress_kernels_available();
   size_t i = 0;
-  for (; i + L <= count; i += L) {
-    Mat3 F[L];
-    Quat q[L];
+  for (; i < count; i += L) {
+    const size_t lanes = std::min(L, count - i);
+    if (lanes < L && !vector_kernels_) break;  // the code before: the last few one at a time
     for (size_t l = 0; l < L; ++l) {
-      const auto t = static_cast<size_t>(query_pending_[i + l]);
+      const auto t = static_cast<size_t>(query_pending_[i + std::min(l, lanes - 1)]);
       F[l] = query_forces_[static_cast<size_t>(query_slot_[t])];
       q[l] = rotations_[t];  // warm start; the stored rotation is left as it is
     }
-    extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);
-    for (size_t l = 0; l < L; ++l) {
+    if (vector_kernels_) {
+      extract_rotations_batch_avx2(F, q, kElementRotationIterations, kElementRotationTolerance);
+    } else {
+      extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);
+    }
+    if (stress_kernels) {  // first_piola's bits in lanes (query_stress_kernels.h)
+      first_piola_stresses_avx2(q, F, mu_, lambda_, lanes, R, P);
+      for (size_t l = 0; l < lanes; ++l) {
+        const auto t = static_cast<size_t>(query_pending_[i + l]);
+        remember_rotation(t, F[l], R[l]);
+        query_forces_[static_cast<size_t>(query_slot_[t])] = P[l];
+      }
+      continue;
+    }
+    for (size_t l = 0; l < lanes; ++l) {
       const auto t = static_cast<size_t>(query_pending_[i + l]);
       const Mat3 R = q[l].toRotationMatrix();
       remember_rotation(t, F[l], R);
       query_forces_[static_cast<size_t>(query_slot_[t])] = first_piola(F[l], R);
     }
   }
-  for (; i < count; ++i) {  // the last few one at a time
+  for (; i < count; ++i) {
     const auto t = static_cast<size_t>(query_pending_[i]);
     Mat3& slot = query_forces_[static_cast<size_t>(query_slot_[t])];
     slot = exact_query_stress(t, Mat3(slot));
@@ -192,12 +240,13 @@ void CorotationalFem::internal_forces_at_nearby_rotations(std::span<const Vec3> 
   begin_local_query();
   query_pending_.clear();
   const double tolerance_sq = rotation_tolerance * rotation_tolerance;
+  const bool gradient_kernels = vector_kernels_ && tet_gradient_kernels_available();
   for (const int v : vertices) {
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      const Mat3 F = deformation_gradient(x, t);
+      const Mat3 F = query_deformation_gradient(x, ts, gradient_kernels);
       const bool nearby = nearby_cached_[ts] != 0 &&
                           (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
       // Within the tolerance: the frozen query's stress with the remembered rotation. Else F waits
@@ -276,7 +325,16 @@ bool CorotationalFem::stiffness_product_at(std::span<const int> moved, std::span
     if (d[k].norm() * vertex_gradient_bound_[static_cast<size_t>(moved[k])] > strain_tolerance) return false;
   }
   for (size_t k = 0; k < moved.size(); ++k) product_entry_[static_cast<size_t>(moved[k])] = static_cast<int>(k);
-  for (size_t k = 0; k < moved.size(); ++k) {
+  const bool row_kernels = vector_kernels_ && stiffness_product_kernels_available();
+  if (row_kernels) {  // the scalar loop's sums bit for bit, in AVX2 lanes (stiffness_product_kernels.h)
+    for (size_t k = 0; k < moved.size(); ++k) {
+      const auto j = static_cast<size_t>(moved[k]);
+      const auto first = static_cast<size_t>(block_row_offsets_[j]), last = static_cast<size_t>(block_row_offsets_[j + 1]);
+      stiffness_row_product_avx2(blocks_.data() + first, block_cols_.data() + first, last - first, j, d[k],
+                                 product_entry_.data(), d.data(), product_sum_.data()->data());
+    }
+  }
+  for (size_t k = 0; k < moved.size() && !row_kernels; ++k) {
     const auto j = static_cast<size_t>(moved[k]);
     const Vec3& dj = d[k];
     const auto first = static_cast<size_t>(block_row_offsets_[j]), last = static_cast<size_t>(block_row_offsets_[j + 1]);

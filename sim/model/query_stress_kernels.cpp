@@ -1,0 +1,86 @@
+#include "sim/model/query_stress_kernels.h"
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
+#include <immintrin.h>
+#define PLIANT_QUERY_STRESS_KERNELS 1
+// AVX2 without "fma": with FMA enabled GCC would contract a * b + c (its C++ default is
+// -ffp-contract=fast) and the sums would no longer be the scalar code's.
+#define PLIANT_AVX2_ONLY __attribute__((target("avx2")))
+#endif
+
+namespace pliant {
+
+#if defined(PLIANT_QUERY_STRESS_KERNELS)
+
+bool query_stress_kernels_available() {
+  static const bool available = __builtin_cpu_supports("avx2");
+  return available;
+}
+
+namespace {
+
+/// Column k (0..2) of the column-major 3x3 at m in lanes 0..2: columns 0 and 1 by a full load
+/// (lane 3 is the next column's first entry, unused), column 2 by a masked one (no read past m).
+PLIANT_AVX2_ONLY inline __m256d matrix_column(const double* m, int k) {
+  if (k < 2) return _mm256_loadu_pd(m + 3 * k);
+  return _mm256_maskload_pd(m + 6, _mm256_set_epi64x(0, -1, -1, -1));
+}
+
+}  // namespace
+
+PLIANT_AVX2_ONLY void first_piola_stresses_avx2(const Quat* q, const Mat3* F, double mu, double lambda, size_t count,
+                                                Mat3* R, Mat3* P) {
+  const __m256d two_mu = _mm256_set1_pd(2.0 * mu);
+  for (size_t l = 0; l < count; ++l) {
+    // first_piola's scalar expressions (Eigen's SSE2 code: no __AVX__ here, no contraction)
+    R[l] = q[l].toRotationMatrix();
+    const double trace = R[l].cwiseProduct(F[l]).sum() - 3.0;
+    const __m256d lambda_trace = _mm256_set1_pd(lambda * trace);
+    const double* f = F[l].data();
+    const double* r = R[l].data();
+    __m256d p[3];
+    for (int k = 0; k < 3; ++k) {
+      const __m256d rk = matrix_column(r, k);
+      p[k] = _mm256_add_pd(_mm256_mul_pd(two_mu, _mm256_sub_pd(matrix_column(f, k), rk)),
+                           _mm256_mul_pd(lambda_trace, rk));
+    }
+    double* out = P[l].data();  // columns 0 and 1 stored whole (lane 3 overwritten next), then 2
+    _mm256_storeu_pd(out, p[0]);
+    _mm256_storeu_pd(out + 3, p[1]);
+    _mm_storeu_pd(out + 6, _mm256_castpd256_pd128(p[2]));
+    out[8] = _mm_cvtsd_f64(_mm256_extractf128_pd(p[2], 1));
+  }
+}
+
+PLIANT_AVX2_ONLY void corner_stress_sum_avx2(const int* corner_tets, size_t corner_stride, const Vec3* corner_gradients,
+                                             size_t count, const int* tet_slots, const Mat3* slot_stresses,
+                                             const double* volumes, double* f) {
+  __m256d sum = _mm256_setzero_pd();
+  for (size_t c = 0; c < count; ++c) {
+    const auto t = static_cast<size_t>(corner_tets[c * corner_stride]);
+    const double* P = slot_stresses[static_cast<size_t>(tet_slots[t])].data();
+    const __m256d volume = _mm256_set1_pd(volumes[t]);
+    const Vec3& g = corner_gradients[c];
+    // (V P) g: column k of V P times g_k; rows 0-1 summed left to right, row 2 a_0 + (a_1 + a_2).
+    const __m256d a0 = _mm256_mul_pd(_mm256_mul_pd(volume, matrix_column(P, 0)), _mm256_set1_pd(g.x()));
+    const __m256d a1 = _mm256_mul_pd(_mm256_mul_pd(volume, matrix_column(P, 1)), _mm256_set1_pd(g.y()));
+    const __m256d a2 = _mm256_mul_pd(_mm256_mul_pd(volume, matrix_column(P, 2)), _mm256_set1_pd(g.z()));
+    const __m256d rows01 = _mm256_add_pd(_mm256_add_pd(a0, a1), a2);
+    const __m256d row2 = _mm256_add_pd(a0, _mm256_add_pd(a1, a2));
+    sum = _mm256_sub_pd(sum, _mm256_blend_pd(rows01, row2, 0x4));
+  }
+  _mm_storeu_pd(f, _mm256_castpd256_pd128(sum));
+  f[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(sum, 1));
+}
+
+#else
+
+bool query_stress_kernels_available() { return false; }
+
+void first_piola_stresses_avx2(const Quat*, const Mat3*, double, double, size_t, Mat3*, Mat3*) {}
+
+void corner_stress_sum_avx2(const int*, size_t, const Vec3*, size_t, const int*, const Mat3*, const double*, double*) {}
+
+#endif
+
+}  // namespace pliant
