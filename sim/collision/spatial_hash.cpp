@@ -78,8 +78,13 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   }
   if (!(deviation + 1e-9 * magnitude <= grid.pad())) return false;  // also false for non-finite positions
   const Quat inverse = pose.rotation.conjugate();
+  // A vertex outside b's bounds is in none of its tets (each tet's box lies inside them). The grid's
+  // cells are as large as the body's tets, so without this a dish wall's grid reaches far into the
+  // dish and lists every fruit vertex there against each of its tets (session 11).
+  const Aabb& own = body_bounds_[i];
   for (const HashedVertex& hv : hashed_) {
     if (!partner_[static_cast<size_t>(hv.body)]) continue;
+    if ((hv.x.array() < own.min.array()).any() || (hv.x.array() > own.max.array()).any()) continue;
     for (int t : grid.tets_near(inverse * (hv.x - pose.translation))) {
       ++stats_.tets_visited;
       TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, stats_, candidates_);
