@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "apps/callgrind_window.h"
 #include "apps/experiment_command.h"
 #include "apps/run_command.h"
 #include "interaction/clock.h"
@@ -59,6 +60,9 @@ bool uses_friction(const Scene& scene) {
 }
 
 BenchRow bench_scene(const Scene& scene, const std::string& variant, const BenchOptions& options) {
+  if (options.callgrind_timed && !callgrind_requests_available) {
+    throw InputError(InputErrorKind::bad_value, "--callgrind-timed", "this build has no valgrind/callgrind.h (install valgrind)");
+  }
   SceneRunner runner(scene);
   BenchRow row;
   row.scene = scene.name;
@@ -78,6 +82,7 @@ BenchRow bench_scene(const Scene& scene, const std::string& variant, const Bench
   ClockStageProfiler profiler(clock);
   long colliding_sum = 0;
   for (long i = 0; i < options.warm_up_steps + options.steps; ++i) {
+    if (options.callgrind_timed && i == options.warm_up_steps) start_callgrind_instrumentation();
     if (!runner.tick(&profiler)) {
       row.fault = runner.fault();
       break;
@@ -111,6 +116,7 @@ BenchRow bench_scene(const Scene& scene, const std::string& variant, const Bench
       w.awake_bodies = row.deformable_bodies - runner.report().sleeping_bodies;
     }
   }
+  if (options.callgrind_timed) stop_callgrind_instrumentation();
   row.colliding_mean =
       row.steps > 0 ? static_cast<double>(colliding_sum) / static_cast<double>(row.steps) : 0.0;
   return row;

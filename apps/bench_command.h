@@ -32,6 +32,9 @@ struct BenchOptions {
   double seconds = 10.0;               ///< haptic benchmark: wall-clock seconds per scene
   bool realtime_priority = true;       ///< haptic benchmark: ask SCHED_FIFO for the haptic thread
   std::optional<int> threads;          ///< override the scenes' "threads" (>= 1; docs/threads.md)
+  /// Under `valgrind --tool=callgrind --instr-atstart=no`: instrument the timed steps only
+  /// (apps/callgrind_window.h), so a piled scene's steps get a firm instruction count.
+  bool callgrind_timed = false;
 };
 
 /// Runs the benchmark and prints the table to `log`. Returns 0, or 1 if a scene's step failed

@@ -96,6 +96,8 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--contact", bench_contact, "Contact method for every scene")
       ->check(CLI::IsMember({"surface", "penalty", "none"}));
   bench_cmd->add_flag("--no-variants", bench_no_variants, "No friction-off rows");
+  bench_cmd->add_flag("--callgrind-timed", bench.callgrind_timed,
+                     "Under valgrind --tool=callgrind --instr-atstart=no: count the timed steps only");
   bench_cmd->add_flag("--cpu-time", bench.cpu_time, "Time the stages in thread CPU time (a shared, loaded machine)");
   bench_cmd->add_option("--window", bench.window_steps,
                         "Also profile every K timed steps (stage p50s, awake bodies) against simulated time")

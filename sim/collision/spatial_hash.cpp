@@ -78,14 +78,74 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   }
   if (!(deviation + 1e-9 * magnitude <= grid.pad())) return false;  // also false for non-finite positions
   const Quat inverse = pose.rotation.conjugate();
+  // A vertex outside b's bounds is in none of its tets (each tet's box lies inside them). The grid's
+  // cells are as large as the body's tets, so without this a dish wall's grid reaches far into the
+  // dish and lists every fruit vertex there against each of its tets (session 11).
+  const Aabb& own = body_bounds_[i];
   for (const HashedVertex& hv : hashed_) {
     if (!partner_[static_cast<size_t>(hv.body)]) continue;
+    if ((hv.x.array() < own.min.array()).any() || (hv.x.array() > own.max.array()).any()) continue;
     for (int t : grid.tets_near(inverse * (hv.x - pose.translation))) {
       ++stats_.tets_visited;
       TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, stats_, candidates_);
     }
   }
   return true;
+}
+
+long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
+  const Aabb& own = body_bounds_[static_cast<size_t>(b)];
+  int hi[3];
+  double cells = 1.0;
+  for (int k = 0; k < 3; ++k) {
+    occupied_origin_[k] = cell_coordinate(own.min[k], inv_l);
+    hi[k] = cell_coordinate(own.max[k], inv_l);
+    cells *= static_cast<double>(hi[k]) - occupied_origin_[k] + 1.0;
+  }
+  // A bitmap of more than 8 bits per inserted vertex would cost more to clear than its look-ups:
+  // none then (a body much larger than its share of the vertices), and no tet is skipped.
+  occupied_dims_[0] = occupied_dims_[1] = occupied_dims_[2] = 0;
+  if (cells > std::max(4096.0, 8.0 * static_cast<double>(hashed_.size()))) return -1;
+  for (int k = 0; k < 3; ++k) occupied_dims_[k] = hi[k] - occupied_origin_[k] + 1;
+  occupied_.assign((static_cast<size_t>(cells) + 63) / 64, 0);
+  long long marked = 0;
+  const int body_count = static_cast<int>(hashed_begin_.size()) - 1;
+  for (int a = 0; a < body_count; ++a) {
+    // A partner vertex inside a tet of b lies in b's bounds, hence in both boxes.
+    if (!partner_[static_cast<size_t>(a)] || !vertex_bounds_[static_cast<size_t>(a)].overlaps(own)) continue;
+    for (int e = hashed_begin_[static_cast<size_t>(a)]; e < hashed_begin_[static_cast<size_t>(a) + 1]; ++e) {
+      const int* c = hashed_[static_cast<size_t>(e)].cell;
+      if (c[0] < occupied_origin_[0] || c[0] > hi[0] || c[1] < occupied_origin_[1] || c[1] > hi[1] ||
+          c[2] < occupied_origin_[2] || c[2] > hi[2]) {
+        continue;
+      }
+      const auto bit = (static_cast<size_t>(c[0] - occupied_origin_[0]) * static_cast<size_t>(occupied_dims_[1]) +
+                        static_cast<size_t>(c[1] - occupied_origin_[1])) *
+                           static_cast<size_t>(occupied_dims_[2]) +
+                       static_cast<size_t>(c[2] - occupied_origin_[2]);
+      occupied_[bit / 64] |= std::uint64_t{1} << (bit % 64);
+      ++marked;
+    }
+  }
+  return marked;
+}
+
+bool SpatialHash::any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const {
+  if (occupied_dims_[0] == 0) return true;
+  assert(i0 >= occupied_origin_[0] && i1 < occupied_origin_[0] + occupied_dims_[0]);
+  assert(j0 >= occupied_origin_[1] && j1 < occupied_origin_[1] + occupied_dims_[1]);
+  assert(k0 >= occupied_origin_[2] && k1 < occupied_origin_[2] + occupied_dims_[2]);
+  const auto ny = static_cast<size_t>(occupied_dims_[1]), nz = static_cast<size_t>(occupied_dims_[2]);
+  for (int i = i0; i <= i1; ++i) {
+    for (int j = j0; j <= j1; ++j) {
+      const size_t row = (static_cast<size_t>(i - occupied_origin_[0]) * ny + static_cast<size_t>(j - occupied_origin_[1])) * nz;
+      for (int k = k0; k <= k1; ++k) {
+        const size_t bit = row + static_cast<size_t>(k - occupied_origin_[2]);
+        if ((occupied_[bit / 64] >> (bit % 64)) & 1u) return true;
+      }
+    }
+  }
+  return false;
 }
 
 std::uint64_t SpatialHash::hash_cell(int i, int j, int k, std::uint64_t table_size) {
@@ -184,7 +244,9 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
   // bounds of some body they may touch: no other vertex can be inside one of its tets.
   hashed_.clear();
   vertex_bounds_.assign(static_cast<size_t>(body_count), Aabb{});
+  hashed_begin_.assign(static_cast<size_t>(body_count) + 1, 0);
   for (int a = 0; a < body_count; ++a) {
+    hashed_begin_[static_cast<size_t>(a)] = static_cast<int>(hashed_.size());  // bodies go in in order
     if (!hashes_vertices_[static_cast<size_t>(a)]) continue;
     const CollisionBody& cb = bodies[static_cast<size_t>(a)];
     const Aabb& own = body_bounds_[static_cast<size_t>(a)];
@@ -226,6 +288,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     }
   }
   stats_.inserted_vertices = static_cast<int>(hashed_.size());
+  hashed_begin_[static_cast<size_t>(body_count)] = static_cast<int>(hashed_.size());
 
   // Pass 2: for each tet of a body that may be penetrated, visit the cells of its AABB.
   for (int b = 0; b < body_count; ++b) {
@@ -247,6 +310,8 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     }
     if (partners.empty()) continue;
     if (cb.rigid_pose != nullptr && rigid_pass(b, cb)) continue;
+    // The cells of b holding a partner vertex; none: no tet of b can hold one.
+    if (mark_occupied_cells(b, inv_l) == 0) continue;
     // Cohen-Sutherland out-codes against the partners' box: a tet all of whose corners lie beyond
     // one of its faces cannot overlap it (the same decision as the box test below, without the box).
     const int nv = cb.mesh->vertex_count();
@@ -271,13 +336,18 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       TetUnderTest under_test(cb, b, t);
       const Aabb& box = under_test.box;
       if (!box.overlaps(partners)) continue;
+      const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
+      const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
+      const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
+      // A partner vertex inside the tet lies in one of its cells: none marked, nothing to find.
+      if (!any_cell_occupied(i0, i1, j0, j1, k0, k1)) {
+        ++stats_.tets_skipped_unoccupied;
+        continue;
+      }
       ++stats_.tets_visited;
       // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
       auto test = [&](const HashedVertex& hv) { under_test.test(hv.x, hv.body, hv.vertex, stats_, candidates_); };
 
-      const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
-      const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
-      const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
       const double cells = (static_cast<double>(i1) - i0 + 1) * (static_cast<double>(j1) - j0 + 1) *
                            (static_cast<double>(k1) - k0 + 1);
       if (cells > static_cast<double>(hashed_.size())) {

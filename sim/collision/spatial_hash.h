@@ -23,6 +23,12 @@
 // (session 8): each inserted partner vertex is mapped into the body's rest frame and tested against
 // the tets of its cell in a grid built once (RigidTetGrid), with the same test, so the result is
 // the cell walk's bit for bit; positions off the pose by more than the grid's pad fall back to it.
+// Session 11 (the piled fruit dish): before pass 2 walks a deformable body's tets, the cells of
+// its bounds that hold an inserted partner vertex are marked in a bitmap (occupied cells); a tet
+// none of whose cells is marked cannot hold a partner vertex, so its hash look-ups are skipped. In
+// a pile every fruit lies inside the union of its partners' bounds, but only its rim's cells hold
+// a neighbour's vertex. A body no partner's inserted vertices reach is skipped whole. Exact: the
+// skipped tets are those whose look-ups would find nothing.
 #pragma once
 
 #include <cstdint>
@@ -53,6 +59,7 @@ struct SpatialHashStats {
   long long inside_tests = 0;       ///< barycentric tests performed
   long long candidates_found = 0;   ///< (vertex, tet) pairs found inside, before de-duplication
   long long entries_scanned = 0;    ///< bucket entries read in pass 2 (skipped body runs not counted)
+  long long tets_skipped_unoccupied = 0;  ///< tets skipped in pass 2: no partner vertex in their cells
 };
 
 class SpatialHash {
@@ -108,6 +115,17 @@ class SpatialHash {
   std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
   std::vector<VertexInTet> candidates_;
   std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
+  std::vector<int> hashed_begin_;       ///< per body (and one past the last): its first entry in hashed_
+  std::vector<std::uint64_t> occupied_;  ///< pass 2 scratch: bitmap of the penetrated body's cells holding a partner vertex
+  int occupied_origin_[3] = {0, 0, 0};  ///< cell of the bitmap's bit 0
+  int occupied_dims_[3] = {0, 0, 0};    ///< cells of the bitmap along x, y, z (0: no bitmap, no skipping)
+
+  /// Marks the cells of body b's bounds that hold an inserted vertex of a partner of b (partner_);
+  /// returns how many vertices were marked. Leaves no bitmap when b's bounds span too many cells.
+  long long mark_occupied_cells(int b, double inv_l);
+  /// Whether some cell of [i0, i1] x [j0, j1] x [k0, k1] (inside b's bounds) holds a partner vertex;
+  /// true when there is no bitmap.
+  bool any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const;
 
   /// Pass 2 for a rigid body b from the inserted partner vertices (each looked up in b's rest-frame
   /// grid); false (nothing done) when b's positions are not pose(rest) within the grid's pad.

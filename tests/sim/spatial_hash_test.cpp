@@ -19,6 +19,7 @@
 #include "sim/collision/spatial_hash.h"
 #include "sim/collision/tet_barycentric.h"
 #include "sim/mesh/box_mesh.h"
+#include "sim/mesh/sphere_mesh.h"
 
 namespace pliant {
 namespace {
@@ -210,6 +211,47 @@ TEST(SpatialHash, MatchesBruteForceOnRandomPoses) {
     total += static_cast<long long>(oracle.size());
   }
   EXPECT_GT(total, 1000);  // the poses really overlap
+}
+
+// A pile (session 11): 27 balls on a jittered 3 x 3 x 3 lattice, each sunk into its neighbours,
+// so every ball lies inside the union of its partners' bounds and the partners' box culls nothing.
+// Pass 2 skips the tets whose cells hold no partner vertex (the occupied-cell bitmap); the result
+// must still be the brute force's, entry for entry, and the skip must really happen (most of a
+// ball's tets are far from its neighbours' vertices).
+TEST(SpatialHash, PileSkipsTetsWithoutPartnerVerticesAndMatchesBruteForce) {
+  const auto ball = make_sphere_mesh({0.015, 40, 2});
+  std::mt19937 rng(811);
+  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+  SpatialHash hash;
+  long long total = 0, skipped = 0, visited = 0;
+  for (int trial = 0; trial < 2; ++trial) {
+    std::vector<std::vector<Vec3>> x;
+    const double spacing = 0.0285 - 0.001 * trial;  // diameter 0.03: overlaps 1.5 and 2.5 mm
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+          const Vec3 centre = spacing * Vec3(i, j, k) + Vec3(jitter(rng), jitter(rng), jitter(rng));
+          x.push_back(posed(*ball, random_rotation(rng), centre));
+        }
+      }
+    }
+    std::vector<CollisionBody> bodies(x.size());
+    for (size_t b = 0; b < x.size(); ++b) {
+      bodies[b].mesh = ball.get();
+      bodies[b].positions = x[b];
+    }
+    const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+    std::vector<VertexInTet> found;
+    hash.detect(bodies, filter, found);
+    const auto oracle = brute_force(bodies, filter);
+    SCOPED_TRACE(trial);
+    expect_same(found, oracle, bodies);
+    total += static_cast<long long>(oracle.size());
+    skipped += hash.stats().tets_skipped_unoccupied;
+    visited += hash.stats().tets_visited;
+  }
+  EXPECT_GT(total, 100);        // the balls really overlap (168 found)
+  EXPECT_GT(skipped, visited);  // and most tets were skipped, exactly
 }
 
 TEST(SpatialHash, SelfCollisionOfFoldedBarsMatchesBruteForce) {
