@@ -1,21 +1,12 @@
 #include "sim/model/query_stress_kernels.h"
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
-#include <immintrin.h>
-#define PLIANT_QUERY_STRESS_KERNELS 1
-// AVX2 without "fma": with FMA enabled GCC would contract a * b + c (its C++ default is
-// -ffp-contract=fast) and the sums would no longer be the scalar code's.
-#define PLIANT_AVX2_ONLY __attribute__((target("avx2")))
-#endif
+#include "sim/model/exact_avx2.h"
 
 namespace pliant {
 
-#if defined(PLIANT_QUERY_STRESS_KERNELS)
+#if defined(PLIANT_EXACT_AVX2_KERNELS)
 
-bool query_stress_kernels_available() {
-  static const bool available = __builtin_cpu_supports("avx2");
-  return available;
-}
+bool query_stress_kernels_available() { return exact_avx2_kernels_available(); }
 
 namespace {
 

@@ -1,23 +1,16 @@
 #include "sim/model/tet_gradient_kernels.h"
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
-#include <immintrin.h>
+#include "sim/model/exact_avx2.h"
 
+#if defined(PLIANT_EXACT_AVX2_KERNELS)
 #include "sim/model/matrix_entry_lanes.h"
-#define PLIANT_TET_GRADIENT_KERNELS 1
-// AVX2 without "fma": with FMA enabled GCC would contract a * b + c (its C++ default is
-// -ffp-contract=fast) and the products would no longer be the scalar code's.
-#define PLIANT_AVX2_ONLY __attribute__((target("avx2")))
 #endif
 
 namespace pliant {
 
-#if defined(PLIANT_TET_GRADIENT_KERNELS)
+#if defined(PLIANT_EXACT_AVX2_KERNELS)
 
-bool tet_gradient_kernels_available() {
-  static const bool available = __builtin_cpu_supports("avx2");
-  return available;
-}
+bool tet_gradient_kernels_available() { return exact_avx2_kernels_available(); }
 
 namespace {
 
