@@ -52,16 +52,12 @@ PLIANT_AVX2_ONLY void corner_stress_sum_avx2(const int* corner_tets, size_t corn
     const double* P = slot_stresses[static_cast<size_t>(tet_slots[t])].data();
     const __m256d volume = _mm256_set1_pd(volumes[t]);
     const Vec3& g = corner_gradients[c];
-    // (V P) g: column k of V P times g_k; rows 0-1 summed left to right, row 2 a_0 + (a_1 + a_2).
-    const __m256d a0 = _mm256_mul_pd(_mm256_mul_pd(volume, matrix_column(P, 0)), _mm256_set1_pd(g.x()));
-    const __m256d a1 = _mm256_mul_pd(_mm256_mul_pd(volume, matrix_column(P, 1)), _mm256_set1_pd(g.y()));
-    const __m256d a2 = _mm256_mul_pd(_mm256_mul_pd(volume, matrix_column(P, 2)), _mm256_set1_pd(g.z()));
-    const __m256d rows01 = _mm256_add_pd(_mm256_add_pd(a0, a1), a2);
-    const __m256d row2 = _mm256_add_pd(a0, _mm256_add_pd(a1, a2));
-    sum = _mm256_sub_pd(sum, _mm256_blend_pd(rows01, row2, 0x4));
+    // (V P) g in Eigen's order: the columns of V P times g's components.
+    sum = _mm256_sub_pd(sum, exact_lanes::product_column(_mm256_mul_pd(volume, matrix_column(P, 0)),
+                                                         _mm256_mul_pd(volume, matrix_column(P, 1)),
+                                                         _mm256_mul_pd(volume, matrix_column(P, 2)), g.x(), g.y(), g.z()));
   }
-  _mm_storeu_pd(f, _mm256_castpd256_pd128(sum));
-  f[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(sum, 1));
+  exact_lanes::store3(f, sum);
 }
 
 #else

@@ -10,23 +10,12 @@ bool stiffness_product_kernels_available() { return exact_avx2_kernels_available
 
 namespace {
 
-/// The triple at v in lanes 0..2, lane 3 zero.
-PLIANT_AVX2_ONLY inline __m256d load_triple(const double* v) {
-  return _mm256_maskload_pd(v, _mm256_set_epi64x(0, -1, -1, -1));
-}
+using exact_lanes::load3;
+using exact_lanes::store3;
 
-/// Stores lanes 0..2 at v.
-PLIANT_AVX2_ONLY inline void store_triple(double* v, __m256d x) {
-  _mm_storeu_pd(v, _mm256_castpd256_pd128(x));
-  v[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(x, 1));
-}
-
-/// B d for the columns c0..c2 of B: rows 0-1 (a_0 + a_1) + a_2, row 2 a_0 + (a_1 + a_2).
+/// B d for the columns c0..c2 of B, in Eigen's order (exact_lanes::product_column).
 PLIANT_AVX2_ONLY inline __m256d block_times(__m256d c0, __m256d c1, __m256d c2, const Vec3& d) {
-  const __m256d a0 = _mm256_mul_pd(c0, _mm256_set1_pd(d.x()));
-  const __m256d a1 = _mm256_mul_pd(c1, _mm256_set1_pd(d.y()));
-  const __m256d a2 = _mm256_mul_pd(c2, _mm256_set1_pd(d.z()));
-  return _mm256_blend_pd(_mm256_add_pd(_mm256_add_pd(a0, a1), a2), _mm256_add_pd(a0, _mm256_add_pd(a1, a2)), 0x4);
+  return exact_lanes::product_column(c0, c1, c2, d.x(), d.y(), d.z());
 }
 
 }  // namespace
@@ -38,11 +27,11 @@ PLIANT_AVX2_ONLY void stiffness_row_product_avx2(const Mat3* blocks, const int* 
   // sum[j] is written only by this row (every other sum this row touches is a column c > j), so it
   // stays in a register; its terms are added in the scalar loop's order.
   const double* K = blocks[0].data();
-  __m256d sum_j = _mm256_add_pd(load_triple(sum + 3 * j),
-                                block_times(_mm256_loadu_pd(K), _mm256_loadu_pd(K + 3), load_triple(K + 6), dj));
+  __m256d sum_j = _mm256_add_pd(load3(sum + 3 * j),
+                                block_times(_mm256_loadu_pd(K), _mm256_loadu_pd(K + 3), load3(K + 6), dj));
   for (size_t b = 1; b < count; ++b) {
     const double* B = blocks[b].data();  // column-major
-    const __m256d c0 = _mm256_loadu_pd(B), c1 = _mm256_loadu_pd(B + 3), c2 = load_triple(B + 6);
+    const __m256d c0 = _mm256_loadu_pd(B), c1 = _mm256_loadu_pd(B + 3), c2 = load3(B + 6);
     // Rows of B (lanes 0..2) by a transpose in registers: r_k = (B(k, 0), B(k, 1), B(k, 2)).
     const __m256d t0 = _mm256_unpacklo_pd(c0, c1);    // B00 B01 B20 B21
     const __m256d t1 = _mm256_unpackhi_pd(c0, c1);    // B10 B11  .   .
@@ -53,11 +42,11 @@ PLIANT_AVX2_ONLY void stiffness_row_product_avx2(const Mat3* blocks, const int* 
     // K'_jc^T d_j: (B(0, i) d_0 + B(1, i) d_1) + B(2, i) d_2 in lane i: B^T's columns are B's rows.
     const __m256d bt = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(r0, dx), _mm256_mul_pd(r1, dy)), _mm256_mul_pd(r2, dz));
     double* sc = sum + 3 * static_cast<size_t>(cols[b]);
-    store_triple(sc, _mm256_add_pd(load_triple(sc), bt));
+    store3(sc, _mm256_add_pd(load3(sc), bt));
     const int e = entry[cols[b]];
     if (e >= 0) sum_j = _mm256_add_pd(sum_j, block_times(c0, c1, c2, d[static_cast<size_t>(e)]));
   }
-  store_triple(sum + 3 * j, sum_j);
+  store3(sum + 3 * j, sum_j);
 }
 
 #else

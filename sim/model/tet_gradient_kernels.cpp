@@ -14,28 +14,9 @@ bool tet_gradient_kernels_available() { return exact_avx2_kernels_available(); }
 
 namespace {
 
-/// Lanes 0..2 of a 4-lane mask load (no read past a triple or a matrix).
-PLIANT_AVX2_ONLY inline __m256i first_three() { return _mm256_set_epi64x(0, -1, -1, -1); }
-
-/// The triple at v in lanes 0..2, lane 3 zero.
-PLIANT_AVX2_ONLY inline __m256d load3(const double* v) { return _mm256_maskload_pd(v, first_three()); }
-
-/// Stores lanes 0..2 at v.
-PLIANT_AVX2_ONLY inline void store3(double* v, __m256d x) {
-  _mm_storeu_pd(v, _mm256_castpd256_pd128(x));
-  v[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(x, 1));
-}
-
-/// Column j of the 3x3 product A B in Eigen's order, a_k the columns of A, b_k = B(k, j):
-/// rows 0 and 1 (a_0 b_0 + a_1 b_1) + a_2 b_2, row 2 a_0 b_0 + (a_1 b_1 + a_2 b_2).
-PLIANT_AVX2_ONLY inline __m256d product_column(__m256d a0, __m256d a1, __m256d a2, double b0, double b1, double b2) {
-  const __m256d p0 = _mm256_mul_pd(a0, _mm256_set1_pd(b0));
-  const __m256d p1 = _mm256_mul_pd(a1, _mm256_set1_pd(b1));
-  const __m256d p2 = _mm256_mul_pd(a2, _mm256_set1_pd(b2));
-  const __m256d packet_rows = _mm256_add_pd(_mm256_add_pd(p0, p1), p2);
-  const __m256d scalar_row = _mm256_add_pd(p0, _mm256_add_pd(p1, p2));
-  return _mm256_blend_pd(packet_rows, scalar_row, 0x4);
-}
+using exact_lanes::load3;
+using exact_lanes::product_column;
+using exact_lanes::store3;
 
 /// Stores the columns c0, c1, c2 (lanes 0..2 each) into the column-major 3x3 C, in this order: the
 /// 4-lane stores of c0 and c1 write a stray lane 3 into the next column's first entry, which the
