@@ -10,12 +10,14 @@
 #include <filesystem>
 #include <iomanip>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "apps/callgrind_window.h"
 #include "apps/experiment_command.h"
 #include "apps/run_command.h"
 #include "interaction/clock.h"
+#include "interaction/host_steal.h"
 #include "interaction/scene/scene_haptics.h"
 #include "interaction/scene/scene_runner.h"
 #include "interaction/step_time_stats.h"
@@ -333,6 +335,7 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
   StepTimeStats step;
   long over_budget = 0;
   const double t_start = clock.now();
+  const std::optional<double> steal_start = host_steal_seconds();
   haptics.start();
   while (runner.fault().empty() && clock.now() - t_start < options.seconds) {
     if (!runner.tick(&profiler)) break;
@@ -341,6 +344,10 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
     if (profiler.total() > budget) ++over_budget;
   }
   haptics.stop();
+  const std::optional<double> steal_end = host_steal_seconds();
+  // Steal of both CPUs over the run (ms): time the host ran other guests while ours wanted to run;
+  // -1 where /proc/stat has none.
+  const double steal_ms = steal_start && steal_end ? (*steal_end - *steal_start) * 1e3 : -1.0;
   const HapticTiming timing = haptics.timing();
   nlohmann::json j = {{"scene", scene.name},
                       {"tissue_vertices", vertices},
@@ -355,6 +362,7 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
                                          {"max_force_rate_n_per_s", limits.max_delta * limits.rate_hz},
                                          {"rate_hz", limits.rate_hz}}},
                       {"haptics", haptic_summary_json(timing, haptics.stats())},
+                      {"host_steal_ms", steal_ms >= 0.0 ? nlohmann::json(steal_ms) : nlohmann::json(nullptr)},
                       {"fault", runner.fault().empty() ? nlohmann::json(nullptr) : nlohmann::json(runner.fault())}};
   const auto ms = [](const Percentiles& p, double q) { return (q < 0.9 ? p.p50 : (q < 1.0 ? p.p99 : p.max)) * 1e3; };
   log << std::left << std::setw(14) << scene.name << std::right << std::fixed << std::setprecision(3) << std::setw(7)
@@ -363,7 +371,8 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
       << std::setw(8) << haptics.stats().ticks << std::setw(9) << ms(timing.period_jitter, 0.5) << std::setw(9)
       << ms(timing.period_jitter, 0.99) << std::setw(9) << ms(timing.period_jitter, 1.0) << std::setw(9)
       << ms(timing.lateness, 0.99) << std::setw(7) << timing.deadline_misses << std::setw(4)
-      << (timing.realtime_priority ? "rt" : "-") << (runner.fault().empty() ? "" : "  FAILED: " + runner.fault())
+      << (timing.realtime_priority ? "rt" : "-") << std::setprecision(0) << std::setw(7)
+      << steal_ms << (runner.fault().empty() ? "" : "  FAILED: " + runner.fault())
       << "\n"
       << std::flush;
   log.unsetf(std::ios::fixed);
@@ -390,8 +399,8 @@ int run_haptic_bench(const BenchOptions& options, std::ostream& log) {
   log << std::left << std::setw(14) << "scene" << std::right << std::setw(7) << "verts" << std::setw(8) << "steps"
       << std::setw(9) << "step50" << std::setw(9) << "step99" << std::setw(8) << ">budget" << std::setw(8)
       << "ticks" << std::setw(9) << "jit50" << std::setw(9) << "jit99" << std::setw(9) << "jitmax" << std::setw(9)
-      << "late99" << std::setw(7) << "misses" << std::setw(4) << "pri"
-      << "   (ms; verts: tissue; jit: |tick period - 1/rate|, late: start - slot)\n"
+      << "late99" << std::setw(7) << "misses" << std::setw(4) << "pri" << std::setw(7) << "steal"
+      << "   (ms; verts: tissue; jit: |tick period - 1/rate|, late: start - slot; steal: host, both CPUs, -1 unknown)\n"
       << std::flush;
   nlohmann::json rows = nlohmann::json::array();
   bool failed = false;
