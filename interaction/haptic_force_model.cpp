@@ -40,27 +40,29 @@ Mat3 HapticForceModel::fit_stiffness(const std::deque<std::pair<Vec3, Vec3>>& pa
 }
 
 void HapticForceModel::update(double t, const Vec3& x, const Vec3& f) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<std::mutex> writer(writer_mutex_);
   if (!x.allFinite() || !f.allFinite() || !std::isfinite(t)) {
     ++rejected_;
     return;
   }
-  if (model_.valid) {
-    const Vec3 s = x - model_.x0;
-    const Vec3 y = -(f - model_.f0);
+  if (latest_.valid) {
+    const Vec3 s = x - latest_.x0;
+    const Vec3 y = -(f - latest_.f0);
     // Only steps in contact on both ends, and steps that moved, say something about stiffness.
-    const bool in_contact = f.squaredNorm() > 0.0 && model_.f0.squaredNorm() > 0.0;
+    const bool in_contact = f.squaredNorm() > 0.0 && latest_.f0.squaredNorm() > 0.0;
     if (!in_contact) pairs_.clear();
     if (in_contact && s.squaredNorm() > 0.0) {
       pairs_.emplace_back(s, y);
       while (static_cast<int>(pairs_.size()) > window_) pairs_.pop_front();
-      model_.k = fit_stiffness(pairs_);
+      latest_.k = fit_stiffness(pairs_);
     }
   }
-  model_.x0 = x;
-  model_.f0 = f;
-  model_.time = t;
-  model_.valid = true;
+  latest_.x0 = x;
+  latest_.f0 = f;
+  latest_.time = t;
+  latest_.valid = true;
+  std::lock_guard<std::mutex> lock(mutex_);
+  model_ = latest_;
 }
 
 Vec3 predict_force(const LinearContactModel& m, const Vec3& x) {
@@ -79,14 +81,16 @@ LinearContactModel HapticForceModel::snapshot() const {
 }
 
 long HapticForceModel::rejected_updates() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<std::mutex> writer(writer_mutex_);
   return rejected_;
 }
 
 void HapticForceModel::reset() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  model_ = LinearContactModel{};
+  std::lock_guard<std::mutex> writer(writer_mutex_);
+  latest_ = LinearContactModel{};
   pairs_.clear();
+  std::lock_guard<std::mutex> lock(mutex_);
+  model_ = latest_;
 }
 
 }  // namespace pliant

@@ -18,7 +18,9 @@
 //   - out of contact (F0 = 0) the model predicts zero: it does not anticipate a contact;
 //   - the prediction never reverses F0's direction (if F . F0 < 0 it is zero): a model that was
 //     linearised while pushing must not pull.
-// Thread-safe: the physics thread calls update(), the haptic thread calls force_at().
+// Thread-safe: the physics thread calls update(), the haptic thread calls force_at(). The fit runs
+// under the writer's own lock; the lock the haptic thread takes guards only the published model's
+// copy, so a physics thread descheduled mid-fit (a loaded machine) cannot hold a haptic tick.
 #pragma once
 
 #include <deque>
@@ -60,8 +62,10 @@ class HapticForceModel {
   static Mat3 nearest_psd(const Mat3& m);
 
  private:
-  mutable std::mutex mutex_;
-  LinearContactModel model_;
+  mutable std::mutex mutex_;                 ///< guards model_ (the haptic thread's read)
+  LinearContactModel model_;                 ///< the published model
+  mutable std::mutex writer_mutex_;          ///< guards what only update() and reset() work on
+  LinearContactModel latest_;                ///< the writer's copy of the model
   std::deque<std::pair<Vec3, Vec3>> pairs_;  ///< (s, y)
   int window_;
   long rejected_ = 0;
