@@ -49,36 +49,30 @@ PLIANT_AVX2_FMA inline double horizontal_sum(__m256d x) {
 /// Lanes 0..2 of x, lane 3 zero.
 PLIANT_AVX2_FMA inline __m256d clear_lane3(__m256d x) { return _mm256_blend_pd(x, _mm256_setzero_pd(), 0x8); }
 
-/// acc += B t_j for one block: one FMA per block column into its own accumulator (a0, a1, a2). The
-/// third column is loaded in full (lane 3 the next block's first entry) unless the block is the last
-/// of its row (masked: nothing read past the array); like the first two columns' lane 3, that lane
-/// is a finite product that is never stored.
-template <bool kLastOfRow>
+/// acc += B t_j for one block: one FMA per block column into its own accumulator (a0, a1, a2). Each
+/// column is a full 4-lane load; lane 3 is the next column's first entry, for the third column the
+/// next block's: a finite product that is never stored. In bounds for every upper block, since the
+/// block after it is another upper block or the next row's diagonal one (every row starts with K'_ii
+/// and the last row has no upper blocks).
 PLIANT_AVX2_FMA inline void gather_block(const double* B, const double* tj, __m256d& a0, __m256d& a1, __m256d& a2) {
   a0 = _mm256_fmadd_pd(_mm256_loadu_pd(B), _mm256_broadcast_sd(tj), a0);
   a1 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 3), _mm256_broadcast_sd(tj + 1), a1);
-  a2 = _mm256_fmadd_pd(kLastOfRow ? load_column3(B + 6) : _mm256_loadu_pd(B + 6), _mm256_broadcast_sd(tj + 2), a2);
+  a2 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 6), _mm256_broadcast_sd(tj + 2), a2);
 }
 
 /// sum_b B_b t_{cols[b]} over [first, last) (lane 3 not zero). Three accumulators (one per block
 /// column) keep the FMA chains independent: 4 cycles per block instead of 12. Each accumulator
 /// takes the blocks in ascending order, one FMA each, as session 8's loop (the same bits); the loop
-/// runs two blocks per turn (session 12: fewer loop instructions per block) and the row's last
-/// block apart (its masked third column).
+/// runs two blocks per turn (session 12: fewer loop instructions per block).
 PLIANT_AVX2_FMA inline __m256d gather(const double* blocks, const int* cols, size_t first, size_t last,
                                       const double* t) {
   __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), a2 = _mm256_setzero_pd();
-  if (first == last) return a0;
   size_t b = first;
-  for (; b + 2 < last; b += 2) {
-    gather_block<false>(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
-    gather_block<false>(blocks + 9 * (b + 1), t + 3 * static_cast<size_t>(cols[b + 1]), a0, a1, a2);
+  for (; b + 1 < last; b += 2) {
+    gather_block(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
+    gather_block(blocks + 9 * (b + 1), t + 3 * static_cast<size_t>(cols[b + 1]), a0, a1, a2);
   }
-  if (b + 1 < last) {
-    gather_block<false>(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
-    ++b;
-  }
-  gather_block<true>(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
+  if (b < last) gather_block(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
   return _mm256_add_pd(_mm256_add_pd(a0, a1), a2);
 }
 
