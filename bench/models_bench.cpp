@@ -225,8 +225,9 @@ BENCHMARK(BM_CorotationalImplicitStep)->DenseRange(0, 7)->Unit(benchmark::kMilli
 // on a beam's block pattern (upper triangle) and fixed vertices. cells 75: the benchmark beam,
 // 1,900 rows, 12,231 blocks with the diagonal ones, ~1.5 MB in all; cells 15: 400 rows, ~0.3 MB,
 // inside a core's 512 KB L2; cells 300: 7,525 rows, ~6 MB, from L3. The iteration as the solver
-// runs it (session 8: backward + forward sweep, CG update, direction update, a memset; session
-// 11 measured a three-pass cut at no gain, docs/deformation-models.md). The values are random (what is timed does not depend on them;
+// runs it (session 8: backward + forward sweep, CG update, direction update; session 11 measured
+// a three-pass cut at no gain; session 12 zeroes acc in the backward sweep instead of a memset,
+// docs/deformation-models.md). The values are random (what is timed does not depend on them;
 // a = b = 0 keeps them from growing, and an FMA by 0 costs what any other does).
 // bytes_per_second: the bytes each cut reads and writes per iteration (arrays counted once per
 // pass, read-modify-write twice; the gathered t_j and scattered acc_j hit L1, counted once) over
@@ -279,7 +280,7 @@ void BM_SsorIteration(benchmark::State& state) {
   // column indices, M = 9 doubles per row (D or D^-1), V = one packed vector.
   const double B = 72.0 * static_cast<double>(cols.size()), C = 4.0 * static_cast<double>(cols.size()),
                M = 72.0 * static_cast<double>(n), V = 24.0 * static_cast<double>(n);
-  // Backward B + C + M + p + t; memset acc; forward B + C + 2M + p + t + 2 acc + q; CG update
+  // Backward B + C + M + p + t + acc (zeroed); forward B + C + 2M + p + t + 2 acc + q; CG update
   // t + 2 dv + q + 2 r + M + Dr; direction Dr + 2 p.
   const double bytes = 2 * B + 2 * C + 4 * M + 18 * V;
   state.counters["bytes_per_iteration"] = bytes;

@@ -1,6 +1,5 @@
 #include "sim/model/fused_ssor_kernels.h"
 
-#include <algorithm>
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
@@ -50,39 +49,87 @@ PLIANT_AVX2_FMA inline double horizontal_sum(__m256d x) {
 /// Lanes 0..2 of x, lane 3 zero.
 PLIANT_AVX2_FMA inline __m256d clear_lane3(__m256d x) { return _mm256_blend_pd(x, _mm256_setzero_pd(), 0x8); }
 
+/// acc += B t_j for one block: one FMA per block column into its own accumulator (a0, a1, a2). Each
+/// column is a full 4-lane load; lane 3 is the next column's first entry, for the third column the
+/// next block's: a finite product that is never stored. In bounds for every upper block, since the
+/// block after it is another upper block or the next row's diagonal one (every row starts with K'_ii
+/// and the last row has no upper blocks).
+PLIANT_AVX2_FMA inline void gather_block(const double* B, const double* tj, __m256d& a0, __m256d& a1, __m256d& a2) {
+  a0 = _mm256_fmadd_pd(_mm256_loadu_pd(B), _mm256_broadcast_sd(tj), a0);
+  a1 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 3), _mm256_broadcast_sd(tj + 1), a1);
+  a2 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 6), _mm256_broadcast_sd(tj + 2), a2);
+}
+
 /// sum_b B_b t_{cols[b]} over [first, last) (lane 3 not zero). Three accumulators (one per block
-/// column) keep the FMA chains independent: 4 cycles per block instead of 12. Lane 3 of the first
-/// two column loads is the next column's first entry, a finite product that is never stored.
+/// column) keep the FMA chains independent: 4 cycles per block instead of 12. Each accumulator
+/// takes the blocks in ascending order, one FMA each, as session 8's loop (the same bits); the loop
+/// runs two blocks per turn (session 12: fewer loop instructions per block).
 PLIANT_AVX2_FMA inline __m256d gather(const double* blocks, const int* cols, size_t first, size_t last,
                                       const double* t) {
   __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), a2 = _mm256_setzero_pd();
-  for (size_t b = first; b < last; ++b) {
-    const double* B = blocks + 9 * b;
-    const double* tj = t + 3 * static_cast<size_t>(cols[b]);
-    a0 = _mm256_fmadd_pd(_mm256_loadu_pd(B), _mm256_broadcast_sd(tj), a0);
-    a1 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 3), _mm256_broadcast_sd(tj + 1), a1);
-    a2 = _mm256_fmadd_pd(load_column3(B + 6), _mm256_broadcast_sd(tj + 2), a2);
+  size_t b = first;
+  for (; b + 1 < last; b += 2) {
+    gather_block(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
+    gather_block(blocks + 9 * (b + 1), t + 3 * static_cast<size_t>(cols[b + 1]), a0, a1, a2);
   }
+  if (b < last) gather_block(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
   return _mm256_add_pd(_mm256_add_pd(a0, a1), a2);
 }
 
-/// acc_{cols[b]} += B_b^T y over [first, last); y's lane 3 must be zero.
+/// The lane products of a block's columns with y (the third column masked: its lane 3 is +0 x y_3).
+struct ColumnProducts {
+  __m256d q0, q1, q2;
+};
+
+/// c_k * y lane-wise for the three columns of the block at B.
+PLIANT_AVX2_FMA inline ColumnProducts column_products(const double* B, __m256d y) {
+  return {_mm256_mul_pd(_mm256_loadu_pd(B), y), _mm256_mul_pd(_mm256_loadu_pd(B + 3), y),
+          _mm256_mul_pd(load_column3(B + 6), y)};
+}
+
+/// acc_{cols[b]} += B_b^T y over [first, last); y's lane 3 must be zero. (B^T y)_k =
+/// (q_k0 + q_k1) + (q_k2 + q_k3) with q_k = c_k * y: hadd forms the pairs, the 128-bit halves are
+/// added. Two blocks per turn (session 12) share the hadds: (c0, c1) of each block and the two
+/// blocks' c2 are paired, so 3 hadds and one add give both blocks' sums where one block alone took
+/// 2 and 1; every sum is the one-block loop's (the same pairs in the same order, the same bits).
+/// The two blocks of a turn are different columns of one row, so their accumulators do not alias.
 PLIANT_AVX2_FMA inline void scatter(const double* blocks, const int* cols, size_t first, size_t last, __m256d y,
                                     double* acc) {
-  for (size_t b = first; b < last; ++b) {
-    const double* B = blocks + 9 * b;
+  size_t b = first;
+  for (; b + 1 < last; b += 2) {
+    const ColumnProducts e = column_products(blocks + 9 * b, y), f = column_products(blocks + 9 * (b + 1), y);
     double* A = acc + 3 * static_cast<size_t>(cols[b]);
-    const __m256d q0 = _mm256_mul_pd(_mm256_loadu_pd(B), y);
-    const __m256d q1 = _mm256_mul_pd(_mm256_loadu_pd(B + 3), y);
-    const __m256d q2 = _mm256_mul_pd(load_column3(B + 6), y);
-    const __m256d h01 = _mm256_hadd_pd(q0, q1);  // (q0_0+q0_1, q1_0+q1_1, q0_2+q0_3, q1_2+q1_3)
-    const __m256d h22 = _mm256_hadd_pd(q2, q2);  // (q2_0+q2_1, ., q2_2+q2_3, .)
-    const __m256d lo = _mm256_permute2f128_pd(h01, h22, 0x20);
-    const __m256d hi = _mm256_permute2f128_pd(h01, h22, 0x31);
-    const __m256d d = _mm256_add_pd(lo, hi);
+    double* C = acc + 3 * static_cast<size_t>(cols[b + 1]);
+    const __m256d he = _mm256_hadd_pd(e.q0, e.q1);  // (e0 lo, e1 lo, e0 hi, e1 hi): pair sums
+    const __m256d hf = _mm256_hadd_pd(f.q0, f.q1);
+    const __m256d h2 = _mm256_hadd_pd(e.q2, f.q2);  // (e2 lo, f2 lo, e2 hi, f2 hi)
+    // (A_0, A_1, C_0, C_1) and (A_2, C_2): lo + hi of each pair.
+    const __m256d d01 = _mm256_add_pd(_mm256_permute2f128_pd(he, hf, 0x20), _mm256_permute2f128_pd(he, hf, 0x31));
+    const __m128d d2 = _mm_add_pd(_mm256_castpd256_pd128(h2), _mm256_extractf128_pd(h2, 1));
+    _mm_storeu_pd(A, _mm_add_pd(_mm_loadu_pd(A), _mm256_castpd256_pd128(d01)));
+    A[2] += _mm_cvtsd_f64(d2);
+    _mm_storeu_pd(C, _mm_add_pd(_mm_loadu_pd(C), _mm256_extractf128_pd(d01, 1)));
+    C[2] += _mm_cvtsd_f64(_mm_unpackhi_pd(d2, d2));
+  }
+  if (b < last) {
+    const ColumnProducts e = column_products(blocks + 9 * b, y);
+    double* A = acc + 3 * static_cast<size_t>(cols[b]);
+    const __m256d h01 = _mm256_hadd_pd(e.q0, e.q1);  // (q0_0+q0_1, q1_0+q1_1, q0_2+q0_3, q1_2+q1_3)
+    const __m256d h22 = _mm256_hadd_pd(e.q2, e.q2);  // (q2_0+q2_1, ., q2_2+q2_3, .)
+    const __m256d d = _mm256_add_pd(_mm256_permute2f128_pd(h01, h22, 0x20), _mm256_permute2f128_pd(h01, h22, 0x31));
     _mm_storeu_pd(A, _mm_add_pd(_mm_loadu_pd(A), _mm256_castpd256_pd128(d)));
     A[2] += _mm_cvtsd_f64(_mm256_extractf128_pd(d, 1));
   }
+}
+
+/// Prefetches the blocks of row k (session 7: the hardware prefetcher misses the backward sweep's
+/// descending stream), a line every 128 bytes to the row's end. (Session 12 measured five fixed
+/// lines without the loop: 17 instructions fewer per row but the backward sweep ~10% slower at the
+/// beam's size, docs/deformation-models.md; kept as it was.)
+PLIANT_AVX2_FMA inline void prefetch_row(const double* blocks, const int* offsets, size_t k) {
+  const auto* line = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k]));
+  const auto* end = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k + 1]));
+  for (; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
 }
 
 }  // namespace
@@ -95,41 +142,44 @@ PLIANT_AVX2_FMA void fused_scatter_row(const double* blocks, const int* cols, si
   scatter(blocks, cols, first, last, _mm256_set_pd(0.0, y2, y1, y0), acc);
 }
 
-// Rows descending for t, each row's blocks prefetched 8 rows ahead (session 7: the hardware
-// prefetcher misses that stream); then rows ascending for q with the transposed blocks scattered.
+// Rows descending for t, each row's blocks prefetched 8 rows ahead; then rows ascending for q with
+// the transposed blocks scattered. The forward sweep's accumulator is zeroed row by row in the
+// backward sweep (session 12; before, a memset between the sweeps: the same +0.0 in every entry,
+// and nothing reads acc before the forward sweep). The system's members are copied into locals: the
+// stores through t, q and acc could alias sys for the compiler, which then reloaded them per row.
 PLIANT_AVX2_FMA double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const double* p, double* t, double* q,
                                               double* acc) {
   constexpr size_t kPrefetchRows = 8;
   const double* blocks = sys.blocks;
   const int* cols = sys.cols;
   const int* offsets = sys.offsets;
+  const double* D = sys.D;
+  const double* D_inverse = sys.D_inverse;
+  const char* fixed = sys.fixed;
+  const size_t n = sys.n;
   const __m256d s = _mm256_set1_pd(sys.s);
-  for (size_t i = sys.n; i-- > 0;) {
-    if (sys.fixed[i] != 0) {
+  const __m256d zero = _mm256_setzero_pd();
+  for (size_t i = n; i-- > 0;) {
+    store3(acc + 3 * i, zero);
+    if (fixed[i] != 0) {
       t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
       continue;
     }
-    if (i >= kPrefetchRows) {
-      const size_t k = i - kPrefetchRows;
-      const auto* line = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k]));
-      const auto* end = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k + 1]));
-      for (; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
-    }
+    if (i >= kPrefetchRows) prefetch_row(blocks, offsets, i - kPrefetchRows);
     const __m256d a = gather(blocks, cols, static_cast<size_t>(offsets[i]) + 1, static_cast<size_t>(offsets[i + 1]), t);
-    store3(t + 3 * i, mat_vec(sys.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
+    store3(t + 3 * i, mat_vec(D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
   }
-  std::fill(acc, acc + 3 * sys.n, 0.0);
   __m256d pq = _mm256_setzero_pd();
-  for (size_t i = 0; i < sys.n; ++i) {
+  for (size_t i = 0; i < n; ++i) {
     const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
-    const __m256d u = _mm256_sub_pd(pi, mat_vec(sys.D + 9 * i, ti));
-    if (sys.fixed[i] != 0) {  // y = u, nothing sent
+    const __m256d u = _mm256_sub_pd(pi, mat_vec(D + 9 * i, ti));
+    if (fixed[i] != 0) {  // y = u, nothing sent
       const __m256d qi = _mm256_add_pd(ti, u);
       store3(q + 3 * i, qi);
       pq = _mm256_fmadd_pd(pi, qi, pq);
       continue;
     }
-    const __m256d y = clear_lane3(mat_vec(sys.D_inverse + 9 * i, _mm256_sub_pd(u, load3(acc + 3 * i))));
+    const __m256d y = clear_lane3(mat_vec(D_inverse + 9 * i, _mm256_sub_pd(u, load3(acc + 3 * i))));
     const __m256d qi = _mm256_add_pd(ti, y);
     store3(q + 3 * i, qi);
     pq = _mm256_fmadd_pd(pi, qi, pq);

@@ -34,9 +34,11 @@ constexpr int kMaxOf0to3 = 0x64;  ///< (0, 1, 2, 1)
 constexpr int kMinOf4to7 = 0x45;  ///< (1, 1, 0, 1)
 constexpr int kMaxOf4to7 = 0xA9;  ///< (1, 2, 2, 2)
 
-/// x with d added to lane 0 only (the diagonal entries 0 and 4 of a block's two vectors).
-PLIANT_AVX2_ONLY inline __m256d add_to_lane0(__m256d x, double d) {
-  return _mm256_blend_pd(x, _mm256_add_pd(x, _mm256_set1_pd(d)), 0x1);
+/// (d, -0, -0, -0): added to a block's vector it adds d to lane 0 (the diagonal entries 0 and 4)
+/// and leaves the other lanes as they are, signed zeros included (x + -0 = x for every x; session 12,
+/// one vector for both halves instead of a broadcast, two adds and two blends).
+PLIANT_AVX2_ONLY inline __m256d lane0_only(double d) {
+  return _mm256_blend_pd(_mm256_set1_pd(-0.0), _mm256_set1_pd(d), 0x1);
 }
 
 /// B[0..7] += (lo, hi), B[8] += e8.
@@ -58,11 +60,19 @@ struct CornerGradients {
 
 PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t last_block,
                                         size_t first_corner, size_t last_corner) {
-  std::fill(sys.blocks + 9 * first_block, sys.blocks + 9 * last_block, 0.0);
+  // The members in locals: the block stores could alias sys for the compiler, which then reloaded
+  // them per corner and per block.
+  double* const blocks = sys.blocks;
+  const double* const gradients = sys.gradients;
+  const double* const volume = sys.volume;
+  const int* const tet_blocks = sys.tet_blocks;
+  const int* const corners = sys.corners;
+  const double mu = sys.mu, lambda = sys.lambda;
+  std::fill(blocks + 9 * first_block, blocks + 9 * last_block, 0.0);
   for (size_t c = first_corner; c < last_corner; ++c) {
-    const auto t = static_cast<size_t>(sys.corners[2 * c]);
-    const auto a = static_cast<size_t>(sys.corners[2 * c + 1]);
-    const double* g = sys.gradients + 9 * t;  // column-major: column j = r_{j+1}
+    const auto t = static_cast<size_t>(corners[2 * c]);
+    const auto a = static_cast<size_t>(corners[2 * c + 1]);
+    const double* g = gradients + 9 * t;  // column-major: column j = r_{j+1}
     CornerGradients r;
     const __m256d r1 = _mm256_loadu_pd(g), r2 = _mm256_loadu_pd(g + 3);
     const __m256d r3 = _mm256_maskload_pd(g + 6, _mm256_set_epi64x(0, -1, -1, -1));  // no read past the tet
@@ -72,7 +82,7 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
     _mm256_store_pd(r.s[1], r1);
     _mm256_store_pd(r.s[2], r2);
     _mm256_store_pd(r.s[3], r3);
-    const double Vmu = sys.volume[t] * sys.mu, Vlambda = sys.volume[t] * sys.lambda;
+    const double Vmu = volume[t] * mu, Vlambda = volume[t] * lambda;
     const __m256d vmu = _mm256_set1_pd(Vmu);
     const __m256d ra = _mm256_load_pd(r.s[a]);
     const double* as = r.s[a];
@@ -81,10 +91,12 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
     const __m256d w_lo = _mm256_mul_pd(_mm256_set1_pd(Vlambda), _mm256_permute4x64_pd(ra, kRowsOf0to3));
     const __m256d w_hi = _mm256_mul_pd(_mm256_set1_pd(Vlambda), _mm256_permute4x64_pd(ra, kRowsOf4to7));
     const double w2 = Vlambda * as[2];
-    const int* slots = sys.tet_blocks + 16 * t + 4 * a;
+    const int* slots = tet_blocks + 16 * t + 4 * a;
+    // Unrolled (session 12): the four slots without a loop counter, ~4 instructions per slot.
+#pragma GCC unroll 4
     for (size_t b = 0; b < 4; ++b) {
       if (slots[b] < 0) continue;  // stored transposed, in the other vertex's row
-      double* B = sys.blocks + 9 * static_cast<size_t>(slots[b]);
+      double* B = blocks + 9 * static_cast<size_t>(slots[b]);
       if (b == a) {
         // add_diagonal_stiffness_block: k = V mu + V lambda, d = V mu |r_a|^2, entry (r, c) =
         // (k a_min) a_max, plus d on the diagonal.
@@ -95,7 +107,8 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
                                          _mm256_permute4x64_pd(ra, kMaxOf0to3));
         const __m256d hi = _mm256_mul_pd(_mm256_mul_pd(kv, _mm256_permute4x64_pd(ra, kMinOf4to7)),
                                          _mm256_permute4x64_pd(ra, kMaxOf4to7));
-        add_to_block(B, add_to_lane0(lo, d), add_to_lane0(hi, d), (k * as[2]) * as[2] + d);
+        const __m256d dv = lane0_only(d);
+        add_to_block(B, _mm256_add_pd(lo, dv), _mm256_add_pd(hi, dv), (k * as[2]) * as[2] + d);
         continue;
       }
       // add_stiffness_block: u = V mu r_b, entry (r, c) = (u_r a_c + w_r b_c), plus
@@ -109,7 +122,8 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
                                        _mm256_mul_pd(w_lo, _mm256_permute4x64_pd(rb, kColumnsOf0to3)));
       const __m256d hi = _mm256_add_pd(_mm256_mul_pd(u_hi, a_hi),
                                        _mm256_mul_pd(w_hi, _mm256_permute4x64_pd(rb, kColumnsOf4to7)));
-      add_to_block(B, add_to_lane0(lo, d), add_to_lane0(hi, d), ((Vmu * bs[2]) * as[2] + w2 * bs[2]) + d);
+      const __m256d dv = lane0_only(d);
+      add_to_block(B, _mm256_add_pd(lo, dv), _mm256_add_pd(hi, dv), ((Vmu * bs[2]) * as[2] + w2 * bs[2]) + d);
     }
   }
 }

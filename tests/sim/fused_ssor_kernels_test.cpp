@@ -1,0 +1,224 @@
+// The SSOR-PCG sweeps' AVX2/FMA kernels (sim/model/fused_ssor_kernels.h) against session 8's kernels,
+// the default path's arithmetic that session 12 restructured (gather two blocks per turn with an
+// unmasked third column, scatter two blocks per turn sharing the horizontal adds, the accumulator
+// zeroed in the backward sweep instead of a memset, a fixed prefetch). Every sum must be the one
+// session 8 formed, in its order, so the reference is session 8's code, kept here verbatim, and t,
+// q, the accumulator and p . q must agree bit for bit. Systems: the upper-triangle block patterns of
+// box meshes (the beam's 75 x 4 x 4 and a small one), fixed rows, entries over 12 decades with
+// zeros and -0. Skipped on a CPU without AVX2/FMA.
+#include <gtest/gtest.h>
+
+#include <immintrin.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "sim/mesh/box_mesh.h"
+#include "sim/model/fused_ssor_kernels.h"
+
+namespace pliant {
+namespace {
+
+#define REFERENCE_AVX2_FMA __attribute__((target("avx2,fma")))
+
+// --- Session 8's kernels (fused_ssor_kernels.cpp at d036f38), the reference. ---
+
+REFERENCE_AVX2_FMA __m256d reference_load3(const double* v) {
+  return _mm256_maskload_pd(v, _mm256_set_epi64x(0, -1, -1, -1));
+}
+
+REFERENCE_AVX2_FMA void reference_store3(double* v, __m256d x) {
+  _mm_storeu_pd(v, _mm256_castpd256_pd128(x));
+  v[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(x, 1));
+}
+
+REFERENCE_AVX2_FMA __m256d reference_mat_vec(const double* M, __m256d x) {
+  const __m256d c = _mm256_mul_pd(_mm256_loadu_pd(M), _mm256_permute4x64_pd(x, 0x00));
+  const __m256d d = _mm256_fmadd_pd(_mm256_loadu_pd(M + 3), _mm256_permute4x64_pd(x, 0x55), c);
+  return _mm256_fmadd_pd(reference_load3(M + 6), _mm256_permute4x64_pd(x, 0xAA), d);
+}
+
+REFERENCE_AVX2_FMA __m256d reference_gather(const double* blocks, const int* cols, size_t first, size_t last,
+                                            const double* t) {
+  __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), a2 = _mm256_setzero_pd();
+  for (size_t b = first; b < last; ++b) {
+    const double* B = blocks + 9 * b;
+    const double* tj = t + 3 * static_cast<size_t>(cols[b]);
+    a0 = _mm256_fmadd_pd(_mm256_loadu_pd(B), _mm256_broadcast_sd(tj), a0);
+    a1 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 3), _mm256_broadcast_sd(tj + 1), a1);
+    a2 = _mm256_fmadd_pd(reference_load3(B + 6), _mm256_broadcast_sd(tj + 2), a2);
+  }
+  return _mm256_add_pd(_mm256_add_pd(a0, a1), a2);
+}
+
+REFERENCE_AVX2_FMA void reference_scatter(const double* blocks, const int* cols, size_t first, size_t last,
+                                          __m256d y, double* acc) {
+  for (size_t b = first; b < last; ++b) {
+    const double* B = blocks + 9 * b;
+    double* A = acc + 3 * static_cast<size_t>(cols[b]);
+    const __m256d q0 = _mm256_mul_pd(_mm256_loadu_pd(B), y);
+    const __m256d q1 = _mm256_mul_pd(_mm256_loadu_pd(B + 3), y);
+    const __m256d q2 = _mm256_mul_pd(reference_load3(B + 6), y);
+    const __m256d h01 = _mm256_hadd_pd(q0, q1);
+    const __m256d h22 = _mm256_hadd_pd(q2, q2);
+    const __m256d d = _mm256_add_pd(_mm256_permute2f128_pd(h01, h22, 0x20), _mm256_permute2f128_pd(h01, h22, 0x31));
+    _mm_storeu_pd(A, _mm_add_pd(_mm_loadu_pd(A), _mm256_castpd256_pd128(d)));
+    A[2] += _mm_cvtsd_f64(_mm256_extractf128_pd(d, 1));
+  }
+}
+
+/// Session 8's fused_scatter_row.
+REFERENCE_AVX2_FMA void reference_scatter_row(const double* blocks, const int* cols, size_t first, size_t last,
+                                              double y0, double y1, double y2, double* acc) {
+  reference_scatter(blocks, cols, first, last, _mm256_set_pd(0.0, y2, y1, y0), acc);
+}
+
+REFERENCE_AVX2_FMA double reference_sweeps(const FusedSsorSystem& sys, const double* p, double* t, double* q,
+                                           double* acc) {
+  const __m256d s = _mm256_set1_pd(sys.s);
+  for (size_t i = sys.n; i-- > 0;) {
+    if (sys.fixed[i] != 0) {
+      t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
+      continue;
+    }
+    const __m256d a = reference_gather(sys.blocks, sys.cols, static_cast<size_t>(sys.offsets[i]) + 1,
+                                       static_cast<size_t>(sys.offsets[i + 1]), t);
+    reference_store3(t + 3 * i, reference_mat_vec(sys.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, reference_load3(p + 3 * i))));
+  }
+  std::fill(acc, acc + 3 * sys.n, 0.0);
+  __m256d pq = _mm256_setzero_pd();
+  for (size_t i = 0; i < sys.n; ++i) {
+    const __m256d pi = reference_load3(p + 3 * i), ti = reference_load3(t + 3 * i);
+    const __m256d u = _mm256_sub_pd(pi, reference_mat_vec(sys.D + 9 * i, ti));
+    if (sys.fixed[i] != 0) {
+      const __m256d qi = _mm256_add_pd(ti, u);
+      reference_store3(q + 3 * i, qi);
+      pq = _mm256_fmadd_pd(pi, qi, pq);
+      continue;
+    }
+    const __m256d y = _mm256_blend_pd(
+        reference_mat_vec(sys.D_inverse + 9 * i, _mm256_sub_pd(u, reference_load3(acc + 3 * i))), _mm256_setzero_pd(),
+        0x8);
+    const __m256d qi = _mm256_add_pd(ti, y);
+    reference_store3(q + 3 * i, qi);
+    pq = _mm256_fmadd_pd(pi, qi, pq);
+    reference_scatter(sys.blocks, sys.cols, static_cast<size_t>(sys.offsets[i]) + 1,
+                      static_cast<size_t>(sys.offsets[i + 1]), _mm256_mul_pd(s, y), acc);
+  }
+  const __m128d h = _mm_add_pd(_mm256_castpd256_pd128(pq), _mm256_extractf128_pd(pq, 1));
+  return _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)));
+}
+
+// --- The systems. ---
+
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+// A box mesh's upper-triangle block pattern (row i: K'_ii, then its neighbours j > i ascending, as
+// CorotationalFem stores K'), fixed rows at x = min with no upper blocks, random entries.
+struct RandomSystem {
+  std::vector<int> offsets{0}, cols;
+  std::vector<double> blocks, D, D_inverse;
+  std::vector<char> fixed;
+  size_t n = 0;
+  std::mt19937_64 rng;
+  std::uniform_real_distribution<double> unit{-1.0, 1.0};
+  std::uniform_int_distribution<int> decade{-6, 6};
+  std::uniform_int_distribution<int> kind{0, 19};
+
+  // Mostly O(1) entries, some over 12 decades, some +0 and -0.
+  double entry() {
+    const int k = kind(rng);
+    if (k == 0) return 0.0;
+    if (k == 1) return -0.0;
+    if (k < 5) return unit(rng) * std::pow(10.0, decade(rng));
+    return unit(rng);
+  }
+
+  RandomSystem(int cells_x, int cells_yz, unsigned seed) : rng(seed) {
+    const TetMeshPtr mesh = make_box_mesh({Vec3(1.0, 0.1, 0.1), cells_x, cells_yz, cells_yz});
+    const std::vector<Vec3>& x = mesh->rest_positions();
+    n = x.size();
+    fixed.assign(n, 0);
+    for (size_t i = 0; i < n; ++i) fixed[i] = x[i].x() < -0.5 + 1e-12 ? 1 : 0;
+    for (size_t i = 0; i < n; ++i) {
+      std::vector<int> row{static_cast<int>(i)};
+      for (int j : mesh->vertex_neighbors(static_cast<int>(i))) {
+        if (j > static_cast<int>(i) && fixed[i] == 0) row.push_back(j);
+      }
+      std::sort(row.begin() + 1, row.end());
+      cols.insert(cols.end(), row.begin(), row.end());
+      offsets.push_back(static_cast<int>(cols.size()));
+    }
+    blocks.resize(9 * cols.size());
+    for (double& b : blocks) b = entry();
+    D.resize(9 * n);
+    D_inverse.resize(9 * n);
+    for (double& d : D) d = entry();
+    for (double& d : D_inverse) d = 0.1 * unit(rng);  // keeps t bounded over the backward sweep
+  }
+
+  FusedSsorSystem system(double s) const {
+    return {blocks.data(), cols.data(), offsets.data(), D.data(), D_inverse.data(), fixed.data(), s, n};
+  }
+
+  std::vector<double> vector() {
+    std::vector<double> v(3 * n);
+    for (double& e : v) e = entry();
+    return v;
+  }
+};
+
+// One iteration's sweeps on random systems and directions: t, q, the forward sweep's accumulator
+// and p . q equal to session 8's bit for bit. The accumulator starts with garbage (the new kernel
+// must zero all of it, as the memset did). FP traps are on (test_main): the restructured lanes raise
+// nothing.
+TEST(FusedSsorKernels, SweepsEqualSessionEightsKernelsBitForBit) {
+  if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  struct Shape {
+    int cells_x, cells_yz;
+  };
+  for (const Shape shape : {Shape{75, 4}, Shape{5, 2}, Shape{3, 1}}) {
+    for (unsigned seed = 1; seed <= 6; ++seed) {
+      RandomSystem sys(shape.cells_x, shape.cells_yz, seed);
+      const double s = seed % 2 == 0 ? 1e-4 : 0.37;
+      const FusedSsorSystem fs = sys.system(s);
+      for (int k = 0; k < 3; ++k) {
+        const std::vector<double> p = sys.vector();
+        std::vector<double> t(3 * sys.n), q(3 * sys.n), acc = sys.vector();
+        std::vector<double> t_ref(3 * sys.n), q_ref(3 * sys.n), acc_ref = sys.vector();
+        const double pq = fused_eisenstat_sweeps(fs, p.data(), t.data(), q.data(), acc.data());
+        const double pq_ref = reference_sweeps(fs, p.data(), t_ref.data(), q_ref.data(), acc_ref.data());
+        EXPECT_TRUE(same_bits(t, t_ref)) << shape.cells_x << " seed " << seed << " k " << k;
+        EXPECT_TRUE(same_bits(q, q_ref)) << shape.cells_x << " seed " << seed << " k " << k;
+        EXPECT_TRUE(same_bits(acc, acc_ref)) << shape.cells_x << " seed " << seed << " k " << k;
+        EXPECT_EQ(std::memcmp(&pq, &pq_ref, sizeof(double)), 0) << pq << " vs " << pq_ref;
+      }
+    }
+  }
+}
+
+// The first transform's and the true residual's scatter (fused_scatter_row, the same scatter) row by
+// row into one accumulator: equal to session 8's loop bit for bit.
+TEST(FusedSsorKernels, ScatterRowEqualsSessionEightsLoopBitForBit) {
+  if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  RandomSystem sys(75, 4, 99);
+  std::vector<double> acc = sys.vector();
+  std::vector<double> acc_ref = acc;
+  const std::vector<double> y = sys.vector();
+  for (size_t i = 0; i < sys.n; ++i) {
+    const size_t first = static_cast<size_t>(sys.offsets[i]) + 1, last = static_cast<size_t>(sys.offsets[i + 1]);
+    fused_scatter_row(sys.blocks.data(), sys.cols.data(), first, last, y[3 * i], y[3 * i + 1], y[3 * i + 2],
+                      acc.data());
+    reference_scatter_row(sys.blocks.data(), sys.cols.data(), first, last, y[3 * i], y[3 * i + 1], y[3 * i + 2],
+                          acc_ref.data());
+  }
+  EXPECT_TRUE(same_bits(acc, acc_ref));
+}
+
+}  // namespace
+}  // namespace pliant
