@@ -816,8 +816,12 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
   }
 }
 
+// A skipped row i (session 12) would add K'_ij^T 0 = +-0 to each y_j, j > i. y_j starts at +0 and a
+// sum of nonzero terms that cancels is +0 too, so y_j is +0 or nonzero whenever such a term would
+// come, and adding +-0 to either leaves its bits (finite blocks; non-finite ones fault the step
+// through the other rows anyway).
 void CorotationalFem::apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
-                                           std::span<Vec3> yb) const {
+                                           std::span<Vec3> yb, std::span<const char> unused_rows) const {
   if (runs_parallel(executor_)) {
     apply_stiffness_pair_parallel(a, ya, b, yb);
     return;
@@ -825,7 +829,13 @@ void CorotationalFem::apply_stiffness_pair(std::span<const Vec3> a, std::span<Ve
   std::fill(ya.begin(), ya.end(), Vec3::Zero());
   std::fill(yb.begin(), yb.end(), Vec3::Zero());
   const size_t n = ya.size();
+  const auto exactly_zero = [](const Vec3& x) { return x.x() == 0.0 && x.y() == 0.0 && x.z() == 0.0; };
   for (size_t i = 0; i < n; ++i) {
+    if (!unused_rows.empty() && unused_rows[i] != 0 && exactly_zero(a[i]) && exactly_zero(b[i])) {
+      ya[i] = Vec3::Zero();
+      yb[i] = Vec3::Zero();
+      continue;
+    }
     ya[i] = row_product(i, a, ya);
     yb[i] = row_product(i, b, yb);  // the row's blocks are still in L1
   }
@@ -978,7 +988,7 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // assembled K', K' dv of the warm start's residual comes from the same pass (q_).
   const bool warm_product = stiffness_assembled_;
   if (warm_product) {
-    apply_stiffness_pair(v, kv_, dv_, q_);
+    apply_stiffness_pair(v, kv_, dv_, q_, in.fixed);  // fixed rows: v = dv = 0, results unused
   } else {
     apply_stiffness(v, kv_);
   }

@@ -204,9 +204,11 @@ class CorotationalFem final : public DeformationModel {
   CgOutcome solve_constrained(std::span<const Vec3> v, double mass_scale, double stiffness_scale,
                               const IntegrationInput& in);
   /// ya = K' a and yb = K' b from the assembled blocks in one pass over the rows (each result as
-  /// apply_stiffness gives it, bit for bit).
-  void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
-                            std::span<Vec3> yb) const;
+  /// apply_stiffness gives it, bit for bit). Rows flagged in `unused_rows` where a and b are exactly
+  /// zero (advance: the fixed vertices) are not multiplied and their results set to zero; every
+  /// other row's result is unchanged bit for bit.
+  void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b, std::span<Vec3> yb,
+                            std::span<const char> unused_rows = {}) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
