@@ -15,7 +15,8 @@ Usage (the bench's steps are the run's steps: warm-up W untimed, then the timed 
 
 Dump k (cg.out.k) covers step k-1. Prints the percentiles of instructions per step, a least-squares
 fit  instructions = a + b * CG iterations + c * (instructions in the K' row sums), the slowest 2% of
-steps with their work, and the steps that called malloc.
+steps with their work, and the steps that called malloc. With --functions N (session 12), also the N
+functions with the most own instructions in the p50 band and the p99 band of steps.
 """
 import argparse
 import csv
