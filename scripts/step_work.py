@@ -15,7 +15,8 @@ Usage (the bench's steps are the run's steps: warm-up W untimed, then the timed 
 
 Dump k (cg.out.k) covers step k-1. Prints the percentiles of instructions per step, a least-squares
 fit  instructions = a + b * CG iterations + c * (instructions in the K' row sums), the slowest 2% of
-steps with their work, and the steps that called malloc.
+steps with their work, and the steps that called malloc. With --functions N (session 12), also the N
+functions with the most own instructions in the p50 band and the p99 band of steps.
 """
 import argparse
 import csv
@@ -78,12 +79,33 @@ def least_squares(rows, y):
     return [a[i][n] / a[i][i] for i in range(n)]
 
 
+def print_function_split(dumps, by_total, count):
+    """Own instructions per function (M per step) in the p50 band and the p99 band, side by side."""
+    n = len(by_total)
+    bands = {"p50 band": by_total[int(0.45 * n): int(0.55 * n) + 1], "p99 band": by_total[n - max(1, n // 50):]}
+    mean = {}
+    for label, steps in bands.items():
+        sums = {}
+        for k in steps:
+            for f, v in dumps[k]["own"].items():
+                sums[f] = sums.get(f, 0) + v
+        mean[label] = {f: v / len(steps) for f, v in sums.items()}
+    totals = {label: sum(m.values()) for label, m in mean.items()}
+    print("own instructions per step (M), " + ", ".join(f"{l} {t / 1e6:.3f}" for l, t in totals.items()) + ":")
+    top = sorted(mean["p99 band"], key=lambda f: -max(m.get(f, 0) for m in mean.values()))[:count]
+    for f in top:
+        print("  " + "  ".join(f"{m.get(f, 0) / 1e6:7.3f}" for m in mean.values()) + f"  {f[:110]}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("prefix", help="callgrind output prefix (cg.out for cg.out.1, cg.out.2, ...)")
     ap.add_argument("steps_csv", help="steps.csv of a `pliant run` of the same scene")
     ap.add_argument("--first", type=int, default=300, help="first step (0-based) of the window")
     ap.add_argument("--last", type=int, default=899, help="last step of the window")
+    ap.add_argument("--functions", type=int, default=0,
+                    help="also print the N functions with the most own instructions, averaged over the "
+                         "steps ranked 45-55%% (the p50 band) and over the slowest 2%% (the p99 band)")
     args = ap.parse_args()
 
     steps = list(csv.DictReader(open(args.steps_csv)))
@@ -113,6 +135,8 @@ def main():
     for k in top:
         print(f"  {k}: {total[k] / 1e6:.2f}, {cg[k]}, {rows[k] / 1e6:.2f}, {colliding[k]}")
     print("CG iterations -> steps:", {i: list(cg.values()).count(i) for i in sorted(set(cg.values()))})
+    if args.functions > 0:
+        print_function_split(dumps, sorted(window, key=lambda k: total[k]), args.functions)
     print("steps that called malloc (step: calls):",
           {k: dumps[k]["mallocs"] for k in window if dumps[k]["mallocs"] > 0} or "none")
 

@@ -250,29 +250,35 @@ void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
 // vertex (ascending, the order a tet-by-tet scatter would add them in), so every block is written
 // while it is in L1 and the 3x3-block matrix streams out once. The tet-by-tet scatter it replaces
 // spent ~60% of its time waiting on first-touch cache misses in the 2 MB of blocks (perf, beam).
-void CorotationalFem::assemble_row(size_t i, const Mat3* gradients) {
+// With block_dirty, a block none of whose tets moved is skipped: summed again it would be the same
+// sum of the same gradients in the same order, so leaving it is exact (session 12).
+void CorotationalFem::assemble_row(size_t i, const Mat3* gradients, const char* block_dirty) {
   if (vector_kernels_) {  // the same blocks bit for bit, in AVX2 lanes (stiffness_row_kernels.h)
     static_assert(sizeof(TetCorner) == 2 * sizeof(int) && sizeof(tet_blocks_[0]) == 16 * sizeof(int));
     const StiffnessRowSystem sys{blocks_.data()->data(), gradients->data(), volume_.data(), tet_blocks_.data()->data(),
                                  &corners_.data()->tet, mu_, lambda_};
     sum_stiffness_row(sys, static_cast<size_t>(block_row_offsets_[i]), static_cast<size_t>(block_row_offsets_[i + 1]),
-                      static_cast<size_t>(corner_offsets_[i]), static_cast<size_t>(corner_offsets_[i + 1]));
+                      static_cast<size_t>(corner_offsets_[i]), static_cast<size_t>(corner_offsets_[i + 1]), block_dirty);
     return;
   }
   double* blocks = blocks_.data()->data();
   const double* volume = volume_.data();
   const TetCorner* corners = corners_.data();
   const auto first = static_cast<size_t>(block_row_offsets_[i]), last = static_cast<size_t>(block_row_offsets_[i + 1]);
-  std::fill(blocks + 9 * first, blocks + 9 * last, 0.0);
+  for (size_t k = first; k < last; ++k) {
+    if (block_dirty == nullptr || block_dirty[k] != 0) std::fill(blocks + 9 * k, blocks + 9 * k + 9, 0.0);
+  }
   const auto corners_end = static_cast<size_t>(corner_offsets_[i + 1]);
   for (auto c = static_cast<size_t>(corner_offsets_[i]); c < corners_end; ++c) {
     const auto t = static_cast<size_t>(corners[c].tet);
     const auto a = static_cast<size_t>(corners[c].local);
+    const int* slots = tet_blocks_[t].data() + a * 4;
+    if (block_dirty != nullptr && !corner_adds_to_dirty_block(slots, block_dirty)) continue;
     const RotatedGradients g(gradients[t]);
     const double Vmu = volume[t] * mu_, Vlambda = volume[t] * lambda_;
-    const int* slots = tet_blocks_[t].data() + a * 4;
     for (size_t b = 0; b < 4; ++b) {
-      if (slots[b] >= 0) add_tet_block(g, a, b, Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
+      if (slots[b] < 0 || (block_dirty != nullptr && block_dirty[slots[b]] == 0)) continue;
+      add_tet_block(g, a, b, Vmu, Vlambda, blocks + 9 * static_cast<size_t>(slots[b]));
     }
   }
 }
@@ -381,11 +387,23 @@ void CorotationalFem::assemble_step_stiffness() {
   } else {
     for (int t : moved_tets_) block_gradients_[static_cast<size_t>(t)] = rotated_gradient(static_cast<size_t>(t));
   }
+  // Only the blocks a moved tet adds to are summed again (the rest of a dirty row is what it was).
+  block_dirty_.resize(blocks_.size(), 0);
+  for (int t : moved_tets_) {
+    for (int slot : tet_blocks_[static_cast<size_t>(t)]) {
+      if (slot >= 0) block_dirty_[static_cast<size_t>(slot)] = 1;
+    }
+  }
   size_t rows = 0;
   for (size_t i = 0; i < n; ++i) {
     if (row_dirty_[i] == 0) continue;
-    assemble_row(i, block_gradients_.data());
+    assemble_row(i, block_gradients_.data(), block_dirty_.data());
     ++rows;
+  }
+  for (int t : moved_tets_) {
+    for (int slot : tet_blocks_[static_cast<size_t>(t)]) {
+      if (slot >= 0) block_dirty_[static_cast<size_t>(slot)] = 0;
+    }
   }
   reassembled_rows_ = rows;
   stiffness_assembled_ = true;
@@ -798,8 +816,12 @@ void CorotationalFem::apply_stiffness(std::span<const Vec3> p, std::span<Vec3> y
   }
 }
 
+// A skipped row i (session 12) would add K'_ij^T 0 = +-0 to each y_j, j > i. y_j starts at +0 and a
+// sum of nonzero terms that cancels is +0 too, so y_j is +0 or nonzero whenever such a term would
+// come, and adding +-0 to either leaves its bits (finite blocks; non-finite ones fault the step
+// through the other rows anyway).
 void CorotationalFem::apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
-                                           std::span<Vec3> yb) const {
+                                           std::span<Vec3> yb, std::span<const char> unused_rows) const {
   if (runs_parallel(executor_)) {
     apply_stiffness_pair_parallel(a, ya, b, yb);
     return;
@@ -807,7 +829,13 @@ void CorotationalFem::apply_stiffness_pair(std::span<const Vec3> a, std::span<Ve
   std::fill(ya.begin(), ya.end(), Vec3::Zero());
   std::fill(yb.begin(), yb.end(), Vec3::Zero());
   const size_t n = ya.size();
+  const auto exactly_zero = [](const Vec3& x) { return x.x() == 0.0 && x.y() == 0.0 && x.z() == 0.0; };
   for (size_t i = 0; i < n; ++i) {
+    if (!unused_rows.empty() && unused_rows[i] != 0 && exactly_zero(a[i]) && exactly_zero(b[i])) {
+      ya[i] = Vec3::Zero();
+      yb[i] = Vec3::Zero();
+      continue;
+    }
     ya[i] = row_product(i, a, ya);
     yb[i] = row_product(i, b, yb);  // the row's blocks are still in L1
   }
@@ -960,7 +988,7 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // assembled K', K' dv of the warm start's residual comes from the same pass (q_).
   const bool warm_product = stiffness_assembled_;
   if (warm_product) {
-    apply_stiffness_pair(v, kv_, dv_, q_);
+    apply_stiffness_pair(v, kv_, dv_, q_, in.fixed);  // fixed rows: v = dv = 0, results unused
   } else {
     apply_stiffness(v, kv_);
   }

@@ -178,8 +178,9 @@ class CorotationalFem final : public DeformationModel {
   void assemble_tet(size_t t, const Mat3& rotated_gradients, double sign);
   /// Assembles K' row by row from the rotated shape gradients of every tet.
   void assemble_stiffness();
-  /// Sums vertex row i of K' from `gradients` (per tet, rotated shape gradients) of the tets around i.
-  void assemble_row(size_t i, const Mat3* gradients);
+  /// Sums vertex row i of K' from `gradients` (per tet, rotated shape gradients) of the tets around i;
+  /// with block_dirty (a flag per block), only the flagged blocks (the same sums, the same bits).
+  void assemble_row(size_t i, const Mat3* gradients, const char* block_dirty = nullptr);
   /// advance's K': assemble_stiffness, or only the rows around tets whose rotation left the
   /// tolerance of stiffness_rotation_tolerance_.
   void assemble_step_stiffness();
@@ -203,9 +204,11 @@ class CorotationalFem final : public DeformationModel {
   CgOutcome solve_constrained(std::span<const Vec3> v, double mass_scale, double stiffness_scale,
                               const IntegrationInput& in);
   /// ya = K' a and yb = K' b from the assembled blocks in one pass over the rows (each result as
-  /// apply_stiffness gives it, bit for bit).
-  void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
-                            std::span<Vec3> yb) const;
+  /// apply_stiffness gives it, bit for bit). Rows flagged in `unused_rows` where a and b are exactly
+  /// zero (advance: the fixed vertices) are not multiplied and their results set to zero; every
+  /// other row's result is unchanged bit for bit.
+  void apply_stiffness_pair(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b, std::span<Vec3> yb,
+                            std::span<const char> unused_rows = {}) const;
   /// y = (mass_scale M + stiffness_scale K') p with fixed rows zeroed; returns p . y.
   double multiply_system(std::span<const Vec3> p, std::span<Vec3> y, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed) const;
@@ -344,6 +347,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> dirty_rows_;                  ///< rows the reuse step sums again (parallel path)
   std::vector<char> tet_moved_;                  ///< per tet: its rotation left the reuse tolerance
   std::vector<int> moved_tets_;                  ///< scratch: tets the serial reuse step rebuilds, ascending
+  std::vector<char> block_dirty_;                ///< scratch: per block, one of its tets is in moved_tets_ (0 between steps)
 };
 
 }  // namespace pliant

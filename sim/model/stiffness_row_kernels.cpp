@@ -59,7 +59,7 @@ struct CornerGradients {
 }  // namespace
 
 PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t last_block,
-                                        size_t first_corner, size_t last_corner) {
+                                        size_t first_corner, size_t last_corner, const char* block_dirty) {
   // The members in locals: the block stores could alias sys for the compiler, which then reloaded
   // them per corner and per block.
   double* const blocks = sys.blocks;
@@ -68,10 +68,18 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
   const int* const tet_blocks = sys.tet_blocks;
   const int* const corners = sys.corners;
   const double mu = sys.mu, lambda = sys.lambda;
-  std::fill(blocks + 9 * first_block, blocks + 9 * last_block, 0.0);
+  if (block_dirty == nullptr) {
+    std::fill(blocks + 9 * first_block, blocks + 9 * last_block, 0.0);
+  } else {
+    for (size_t k = first_block; k < last_block; ++k) {
+      if (block_dirty[k] != 0) std::fill(blocks + 9 * k, blocks + 9 * k + 9, 0.0);
+    }
+  }
   for (size_t c = first_corner; c < last_corner; ++c) {
     const auto t = static_cast<size_t>(corners[2 * c]);
     const auto a = static_cast<size_t>(corners[2 * c + 1]);
+    const int* slots = tet_blocks + 16 * t + 4 * a;
+    if (block_dirty != nullptr && !corner_adds_to_dirty_block(slots, block_dirty)) continue;
     const double* g = gradients + 9 * t;  // column-major: column j = r_{j+1}
     CornerGradients r;
     const __m256d r1 = _mm256_loadu_pd(g), r2 = _mm256_loadu_pd(g + 3);
@@ -91,11 +99,11 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
     const __m256d w_lo = _mm256_mul_pd(_mm256_set1_pd(Vlambda), _mm256_permute4x64_pd(ra, kRowsOf0to3));
     const __m256d w_hi = _mm256_mul_pd(_mm256_set1_pd(Vlambda), _mm256_permute4x64_pd(ra, kRowsOf4to7));
     const double w2 = Vlambda * as[2];
-    const int* slots = tet_blocks + 16 * t + 4 * a;
     // Unrolled (session 12): the four slots without a loop counter, ~4 instructions per slot.
 #pragma GCC unroll 4
     for (size_t b = 0; b < 4; ++b) {
       if (slots[b] < 0) continue;  // stored transposed, in the other vertex's row
+      if (block_dirty != nullptr && block_dirty[slots[b]] == 0) continue;  // kept: its tets did not move
       double* B = blocks + 9 * static_cast<size_t>(slots[b]);
       if (b == a) {
         // add_diagonal_stiffness_block: k = V mu + V lambda, d = V mu |r_a|^2, entry (r, c) =
@@ -177,7 +185,7 @@ bool stiffness_row_kernels_available() { return false; }
 
 void stiffness_row_product(const double*, const int*, size_t, size_t, size_t, const double*, double*, double*) {}
 
-void sum_stiffness_row(const StiffnessRowSystem&, size_t, size_t, size_t, size_t) {}
+void sum_stiffness_row(const StiffnessRowSystem&, size_t, size_t, size_t, size_t, const char*) {}
 
 #endif
 

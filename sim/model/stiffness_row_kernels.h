@@ -36,9 +36,20 @@ struct StiffnessRowSystem {
 
 /// Zeroes the blocks [first_block, last_block) of a vertex row and sums into them the blocks of
 /// the corners [first_corner, last_corner) (the vertex's, ascending tet): bit for bit
-/// CorotationalFem's scalar assemble_row. Only where stiffness_row_kernels_available().
+/// CorotationalFem's scalar assemble_row. With block_dirty (one flag per block of the matrix), only
+/// the flagged blocks are zeroed and summed (the same sums, so the same bits); the others are left
+/// as they are. Only where stiffness_row_kernels_available().
 void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t last_block, size_t first_corner,
-                       size_t last_corner);
+                       size_t last_corner, const char* block_dirty = nullptr);
+
+/// True when one of a tet corner's four block slots (-1: stored in the other vertex's row) is
+/// flagged in block_dirty: the corner adds to a block being summed again.
+inline bool corner_adds_to_dirty_block(const int* slots, const char* block_dirty) {
+  for (int b = 0; b < 4; ++b) {
+    if (slots[b] >= 0 && block_dirty[slots[b]] != 0) return true;
+  }
+  return false;
+}
 
 /// Row i of the upper-triangle product y = K' p (CorotationalFem::row_product, bit for bit): returns
 /// in result y_i + K'_ii p_i + sum_j K'_ij p_j and adds K'_ij^T p_i to y_j, j > i, for the blocks

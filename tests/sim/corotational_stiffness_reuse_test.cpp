@@ -7,9 +7,12 @@
 // <= 1, so |v~+ - v+| <= ~2 theta |v+| (the test allows 4 theta).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "sim/model/corotational_fem.h"
+#include "sim/parallel/task_executor.h"
 #include "support/clamped_beam.h"
 #include "support/vec_compare.h"
 
@@ -100,6 +103,40 @@ TEST(CorotationalStiffnessReuse, StillBodySumsNoRowAgain) {
   model.advance(beam.x, beam.v, beam.input());
   EXPECT_EQ(model.reassembled_rows(), 0u);
   EXPECT_LT(field_norm(beam.v), 1e-12);
+}
+
+/// Claims two threads, so the model takes its threaded paths, but runs the chunks inline, last
+/// first. The threaded reuse step sums every dirty row whole (corotational_parallel.cpp).
+class InlineTwoThreadExecutor : public TaskExecutor {
+ public:
+  int thread_count() const override { return 2; }
+  void for_each_chunk(size_t count, size_t chunk, ChunkFunction body) override {
+    for (size_t k = (count + chunk - 1) / chunk; k-- > 0;) body(k * chunk, std::min((k + 1) * chunk, count));
+  }
+};
+
+// Session 12: the serial reuse step sums again only the blocks a moved tet adds to, and leaves the
+// rest of a dirty row. Reference: the threaded reuse step, which sums each dirty row whole (the
+// code before session 12) from the same gradients; the two must agree bit for bit, step by step,
+// while most steps reuse part of the rows (the threaded paths are bit-identical to the serial ones,
+// docs/threads.md).
+TEST(CorotationalStiffnessReuse, MovedTetsBlocksAloneEqualWholeDirtyRowsBitForBit) {
+  TipPushedBeam a, b;
+  CorotationalFem blocks_only(a.mesh, a.material, ModelSettings{});
+  CorotationalFem whole_rows(b.mesh, b.material, ModelSettings{});
+  InlineTwoThreadExecutor executor;
+  whole_rows.set_executor(&executor);
+  const auto n = static_cast<size_t>(a.mesh->vertex_count());
+  size_t partial_steps = 0;
+  for (int step = 0; step < 60; ++step) {
+    blocks_only.advance(a.x, a.v, a.input());
+    whole_rows.advance(b.x, b.v, b.input());
+    ASSERT_EQ(blocks_only.reassembled_rows(), whole_rows.reassembled_rows()) << "step " << step;
+    if (step > 0 && blocks_only.reassembled_rows() > 0 && blocks_only.reassembled_rows() < n) ++partial_steps;
+    ASSERT_EQ(0, std::memcmp(a.x.data(), b.x.data(), n * sizeof(Vec3))) << "positions differ at step " << step;
+    ASSERT_EQ(0, std::memcmp(a.v.data(), b.v.data(), n * sizeof(Vec3))) << "velocities differ at step " << step;
+  }
+  EXPECT_GT(partial_steps, 30u);
 }
 
 }  // namespace
