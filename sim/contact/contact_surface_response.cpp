@@ -588,7 +588,9 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // Stage 4: binary search on the pressure difference.
   place_region(bodies, vertices);
   const int iterations = std::max(0, settings.binary_search_iterations);
-  samples_.assign(vertices.size(), SearchSamples{});
+  // The search's samples are read only by the secant refinement (session 12: not kept without it).
+  const bool keep_samples = settings.secant_refinement;
+  if (keep_samples) samples_.assign(vertices.size(), SearchSamples{});
   // Without searching vertices (everything in contact faces an immovable body) no pressure is
   // read: the fractions below still step as before (a zero displacement only ever goes further).
   const bool search = region_.has_searching_vertices();
@@ -607,7 +609,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       auto& v = vertices[i];
       if (v.immovable || v.rigid_partner) continue;
       const double difference = v.pressure - partner_pressure(region_, v);
-      samples_[i].add(v.fraction, difference);
+      if (keep_samples) samples_[i].add(v.fraction, difference);
       v.fraction += difference > 0.0 ? -step : step;
     }
     if (search) place_region(bodies, vertices);

@@ -121,6 +121,10 @@ class DeformationRegion {
   std::vector<double> denominator_;
   std::vector<Triple> triples_;
   std::vector<char> flag_;      ///< per region vertex: has a partner / needed by the search
+  std::vector<Triple> sorted_triples_;  ///< scratch of sort_triples()
+  std::vector<int> owner_offsets_;      ///< scratch of sort_triples(): per owner, where its triples go
+  /// Sorts triples_ by (owner, partner) into std::sort's order (deformation_region.cpp).
+  void sort_triples();
   std::vector<int> group_of_;   ///< per body slot: group index or -1
 };
 

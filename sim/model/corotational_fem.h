@@ -310,9 +310,9 @@ class CorotationalFem final : public DeformationModel {
   /// query's stress, extracting four rotations per call with the vector kernels (else
   /// kRotationBatchLanes; bit for bit the scalar's either way).
   void exact_query_stresses_batched();
-  /// Deformation gradient of tet t at x for a query: deformation_gradient's bits, in AVX2 lanes when
-  /// `kernels` (vector kernels on and tet_gradient_kernels_available()).
-  Mat3 query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels) const;
+  /// Deformation gradient of tet t at x for a query, into F: deformation_gradient's bits, in AVX2
+  /// lanes when `kernels` (vector kernels on and tet_gradient_kernels_available()).
+  void query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels, Mat3& F) const;
   /// f at `vertices` from the current query's slots: -V P g_j summed over each vertex's tets.
   void sum_query_stresses(std::span<const int> vertices, std::span<Vec3> f) const;
   std::vector<int> query_pending_;      ///< tets of the current query waiting for an exact extraction

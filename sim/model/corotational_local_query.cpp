@@ -112,11 +112,14 @@ std::pair<size_t, bool> CorotationalFem::local_query_slot(size_t t) {
   return {slot, true};
 }
 
-Mat3 CorotationalFem::query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels) const {
-  if (!kernels) return deformation_gradient(x, static_cast<int>(t));
-  Mat3 F;  // the same bits in AVX2 lanes (tet_gradient_kernels.h), one tet per call: the query's tets are scattered
+void CorotationalFem::query_deformation_gradient(std::span<const Vec3> x, size_t t, bool kernels, Mat3& F) const {
+  if (!kernels) {
+    F = deformation_gradient(x, static_cast<int>(t));
+    return;
+  }
+  // The same bits in AVX2 lanes (tet_gradient_kernels.h), one tet per call (the query's tets are
+  // scattered), written where the query keeps F (session 12: no copy through a returned Mat3).
   deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t], &rest_shape_inverse_[t], 1, &F);
-  return F;
 }
 
 void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<const int> vertices,
@@ -129,7 +132,7 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      query_forces_[slot] = query_deformation_gradient(x, ts, gradient_kernels);  // F, until the extraction below
+      query_deformation_gradient(x, ts, gradient_kernels, query_forces_[slot]);  // F, until the extraction below
       query_pending_.push_back(t);
     }
   }
@@ -181,10 +184,29 @@ void CorotationalFem::exact_query_stresses_batched() {
   Quat q[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
   Mat3 R[kRotationBatchLanesAvx2], P[kRotationBatchLanesAvx2];
   const bool stress_kernels = vector_kernels_ && query_stress_kernels_available();
+  // Session 12: in the exact query every slot is a pending tet, taken in order (slot k = pending
+  // tet k), so whole batches need no gather of F nor a copy of P back into the slot.
+  const bool in_slot_order = stress_kernels && L == kRotationBatchLanesAvx2 && count == query_slots_;
   size_t i = 0;
   for (; i < count; i += L) {
     const size_t lanes = std::min(L, count - i);
     if (lanes < L && !vector_kernels_) break;  // the code before: the last few one at a time
+    if (in_slot_order && lanes == L) {
+      // The batch's F already lie side by side in slots i .. i + L - 1: extract there, and let P
+      // overwrite each F in place (the kernel reads a lane's F whole before it stores its P), after
+      // the F is remembered. The same operations on the same bits as the copying loop below.
+      Mat3* slots = query_forces_.data() + i;
+      for (size_t l = 0; l < L; ++l) q[l] = rotations_[static_cast<size_t>(query_pending_[i + l])];
+      extract_rotations_batch_avx2(slots, q, kElementRotationIterations, kElementRotationTolerance);
+      for (size_t l = 0; l < L; ++l) nearby_key_[static_cast<size_t>(query_pending_[i + l])] = slots[l];
+      first_piola_stresses_avx2(q, slots, mu_, lambda_, L, R, slots);
+      for (size_t l = 0; l < L; ++l) {
+        const auto t = static_cast<size_t>(query_pending_[i + l]);
+        nearby_rotation_[t] = R[l];
+        nearby_cached_[t] = 1;
+      }
+      continue;
+    }
     for (size_t l = 0; l < L; ++l) {
       const auto t = static_cast<size_t>(query_pending_[i + std::min(l, lanes - 1)]);
       F[l] = query_forces_[static_cast<size_t>(query_slot_[t])];
@@ -246,14 +268,18 @@ void CorotationalFem::internal_forces_at_nearby_rotations(std::span<const Vec3> 
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      const Mat3 F = query_deformation_gradient(x, ts, gradient_kernels);
+      Mat3& F = query_forces_[slot];
+      query_deformation_gradient(x, ts, gradient_kernels, F);
       const bool nearby = nearby_cached_[ts] != 0 &&
                           (F - nearby_key_[ts]).squaredNorm() <= tolerance_sq;
       // Within the tolerance: the frozen query's stress with the remembered rotation. Else F waits
       // for the batched extraction (a tet's remembered rotation is looked up before any of this
       // query's extractions, as in the one-at-a-time query: a tet is met once per query).
-      query_forces_[slot] = nearby ? warped_stiffness_stress(F, nearby_rotation_[ts]) : F;
-      if (!nearby) query_pending_.push_back(t);
+      if (nearby) {
+        F = warped_stiffness_stress(F, nearby_rotation_[ts]);  // evaluated into a temporary first
+      } else {
+        query_pending_.push_back(t);
+      }
     }
   }
   exact_query_stresses_batched();
