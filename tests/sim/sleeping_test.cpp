@@ -120,32 +120,43 @@ TEST(Sleeping, BlockOnFloorFallsAsleepAndItsStateThenStopsChangingExactly) {
   EXPECT_TRUE(bit_identical(s.world.body(s.block).velocities, v));
 }
 
-TEST(Sleeping, WakesInTheStepAnotherBodyLandsOnIt) {
-  FloorAndBlock s(sleep_on());
-  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
-  const std::vector<Vec3> x = s.world.body(s.block).positions;
-  // A second block 30 mm above the first one's top (z = 0.05): it lands after ~78 ms.
-  const BodyId top = FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.03 + 0.025));
-  int woken_at = -1;
-  for (int i = 1; i <= 200 && woken_at < 0; ++i) {
+// Once the block sleeps, a second block is dropped from 30 mm above its top (z = 0.05): it lands
+// after ~78 ms. Steps until the lower block wakes (at most 200 steps), checking that it stays
+// bit-identical until then and is woken by the contact of that very step.
+struct Landing {
+  int woken_at = -1;            ///< step of the wake after the drop (-1: never)
+  BodyId top;
+  std::vector<Vec3> asleep_at;  ///< the lower block's positions while it slept
+};
+Landing drop_a_block_on_the_sleeping_one(FloorAndBlock& s) {
+  Landing landing;
+  if (!step_until_asleep(s.world, s.block, 3000).has_value()) return landing;
+  landing.asleep_at = s.world.body(s.block).positions;
+  landing.top = FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.03 + 0.025));
+  for (int i = 1; i <= 200 && landing.woken_at < 0; ++i) {
     const StepReport& r = s.world.step(kDt);
-    ASSERT_TRUE(r.all_finite);
+    EXPECT_TRUE(r.all_finite);
     if (!s.world.body(s.block).is_sleeping()) {
-      woken_at = i;
-      // Woken by the contact of this very step, not later.
+      landing.woken_at = i;
       EXPECT_EQ(r.bodies_woken, 1);
       EXPECT_GT(r.colliding_vertices, 0);
     } else {
-      EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, x)) << "sleeping block moved at step " << i;
+      EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, landing.asleep_at)) << "sleeping block moved at step " << i;
     }
   }
-  ASSERT_GT(woken_at, 0) << "the lower block never woke";
+  return landing;
+}
+
+TEST(Sleeping, WakesInTheStepAnotherBodyLandsOnIt) {
+  FloorAndBlock s(sleep_on());
+  const Landing landing = drop_a_block_on_the_sleeping_one(s);
+  ASSERT_GT(landing.woken_at, 0) << "the lower block never slept or never woke";
   // Closed form: the top block falls 30 mm in sqrt(2 h / g) = 78 ms before it touches.
-  EXPECT_NEAR(woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
-  EXPECT_FALSE(s.world.body(top).is_sleeping());
+  EXPECT_NEAR(landing.woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
+  EXPECT_FALSE(s.world.body(landing.top).is_sleeping());
   // Awake, the lower block responds to the load: it moves again.
   for (int i = 0; i < 20; ++i) s.world.step(kDt);
-  EXPECT_FALSE(bit_identical(s.world.body(s.block).positions, x));
+  EXPECT_FALSE(bit_identical(s.world.body(s.block).positions, landing.asleep_at));
 }
 
 TEST(Sleeping, WakesWhenAnInstrumentTouchesIt) {
@@ -581,22 +592,9 @@ TEST(Sleeping, CentreMotionStillWakesTheBlockALandingBlockHits) {
   WorldSettings settings = sleep_on();
   settings.sleep.wake_on_centre_motion = true;
   FloorAndBlock s(settings);
-  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
-  const std::vector<Vec3> x = s.world.body(s.block).positions;
-  FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.03 + 0.025));
-  int woken_at = -1;
-  for (int i = 1; i <= 200 && woken_at < 0; ++i) {
-    const StepReport& r = s.world.step(kDt);
-    ASSERT_TRUE(r.all_finite);
-    if (!s.world.body(s.block).is_sleeping()) {
-      woken_at = i;
-      EXPECT_GT(r.colliding_vertices, 0);
-    } else {
-      EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, x)) << "sleeping block moved at step " << i;
-    }
-  }
-  ASSERT_GT(woken_at, 0) << "the lower block never woke";
-  EXPECT_NEAR(woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
+  const Landing landing = drop_a_block_on_the_sleeping_one(s);
+  ASSERT_GT(landing.woken_at, 0) << "the lower block never slept or never woke";
+  EXPECT_NEAR(landing.woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
 }
 
 }  // namespace
