@@ -41,6 +41,12 @@ struct SleepSettings {
   /// m, the rest ball's radius: how far a vertex may move from the rest's anchor.
   double rest_distance() const { return speed * time; }
   double wake_margin = 0.002;  ///< m, a moving body wakes sleepers whose bounding boxes are this close to its own
+  /// Which motion of an awake deformable body wakes the sleepers it touches or comes near
+  /// (session 12, opt-in; docs/experiments.md "Session 12"): false (default), leaving its rest
+  /// ball with any vertex; true, its centre of mass moving farther than the rest ball's radius
+  /// from where it was when it last woke its neighbours (or was created). A body turning or
+  /// changing shape in place then wakes nobody; it still cannot fall asleep itself.
+  bool wake_on_centre_motion = false;
 };
 
 /// A deformable body's sleep bookkeeping (kept in Body).
@@ -54,6 +60,10 @@ struct SleepState {
   bool instrument_contact = false;  ///< an instrument touches the body this step (never rests)
   Vec3 box_lo = Vec3::Zero();  ///< m, bounding box of the positions it fell asleep at (valid while asleep)
   Vec3 box_hi = Vec3::Zero();  ///< m
+  /// m, centre of mass when it last woke its neighbours or was created (wake_on_centre_motion).
+  Vec3 wake_centre = Vec3::Zero();
+  bool has_wake_centre = false;
+  bool centre_moved = false;   ///< its centre left the ball around wake_centre in its last step
 };
 
 }  // namespace pliant

@@ -47,6 +47,30 @@ bool within_rest_distance(const Body& body, const SleepSettings& settings) {
   return true;
 }
 
+// Mass-weighted mean of the positions (lumped masses).
+Vec3 centre_of_mass(const Body& body) {
+  Vec3 sum = Vec3::Zero();
+  double mass = 0.0;
+  for (size_t v = 0; v < body.positions.size(); ++v) {
+    sum += body.masses[v] * body.positions[v];
+    mass += body.masses[v];
+  }
+  return sum / mass;
+}
+
+// wake_on_centre_motion: whether the centre of mass left the ball around where the body last woke
+// its neighbours (a new body counts as moved). The anchor moves only when the body wakes them, so
+// a drift in small steps is caught once it adds up to the ball's radius.
+void note_centre_motion(Body& body, const SleepSettings& settings) {
+  SleepState& sleep = body.sleep;
+  const Vec3 centre = centre_of_mass(body);
+  sleep.centre_moved = !sleep.has_wake_centre || (centre - sleep.wake_centre).norm() > settings.rest_distance();
+  if (sleep.centre_moved) {
+    sleep.wake_centre = centre;
+    sleep.has_wake_centre = true;
+  }
+}
+
 }  // namespace
 
 void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter) {
@@ -94,16 +118,18 @@ void wake_body(Body& body) {
   body.sleep.resting = body.sleep.rest_anchor.size() == body.positions.size();
   body.sleep.rest_time = 0.0;
   body.sleep.has_elastic_energy = false;
+  body.sleep.centre_moved = false;  // likewise for wake_on_centre_motion: its centre has not moved
 }
 
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
                         const SleepSettings& settings) {
-  // An awake deformable body moves unless it stayed inside its rest ball in its last step.
+  // An awake deformable body moves unless it stayed inside its rest ball in its last step (or,
+  // wake_on_centre_motion, unless its centre stayed within the ball's radius of its wake centre).
   auto moves = [&](int index) {
     const Body* b = bodies[static_cast<size_t>(index)];
     if (b == nullptr || b->is_sleeping()) return false;
     if (b->is_kinematic()) return b->instrument || b->moved_this_step;
-    return !b->sleep.resting;
+    return settings.wake_on_centre_motion ? b->sleep.centre_moved : !b->sleep.resting;
   };
   int woken = 0;
   auto wake = [&](int index) {
@@ -166,6 +192,7 @@ int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& 
       sleep.rest_time = 0.0;
       sleep.rest_anchor = body->positions;  // reuses its capacity
     }
+    if (settings.wake_on_centre_motion) note_centre_motion(*body, settings);
     if (sleep.instrument_contact || pushed) sleep.rest_time = 0.0;  // under an instrument or a force: awake
     if (sleep.rest_time >= settings.time) {
       sleep.sleeping = true;

@@ -1,6 +1,12 @@
 // The sleeping-body rules of World::step (criterion and wake rules: sim/sleep/sleep_settings.h).
 // Each function is one place in the step: pair filtering before detection, waking after it,
 // falling asleep after the report.
+// Opt-in wake rule (session 12, SleepSettings::wake_on_centre_motion): a deformable body is a
+// mover only when its centre of mass has moved more than the ball's radius since it last woke its
+// neighbours. In the full dish the ball exits are fruits turning and changing shape in place (the
+// centre had moved 0.56 mm, median, when a vertex left the 2 mm ball), half of them by fruits just
+// woken by such an exit, so waking on any vertex kept 80-110 of 138 fruits awake; waking on the
+// centre lets the pile sleep (docs/experiments.md "Session 12").
 #pragma once
 
 #include <span>
@@ -28,7 +34,9 @@ int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<Ve
 /// moved this step, any instrument, or an awake deformable body that left its rest ball in its
 /// last step), and every sleeping body whose bounding box comes within settings.wake_margin of an
 /// awake deformable body that left its rest ball (not transitively: a woken body keeps its anchor
-/// and is no mover until it leaves its own ball). Returns the number of bodies woken.
+/// and is no mover until it leaves its own ball). With settings.wake_on_centre_motion a deformable
+/// body is a mover only when its centre of mass left its wake ball (SleepState::centre_moved).
+/// Returns the number of bodies woken.
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
                         const SleepSettings& settings);
 

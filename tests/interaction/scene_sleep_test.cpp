@@ -12,6 +12,7 @@
 
 #include "interaction/scene/scene.h"
 #include "interaction/scene/scene_runner.h"
+#include "sim/input_error.h"
 
 namespace pliant {
 namespace {
@@ -70,6 +71,24 @@ TEST(SceneSleep, CoarseProbeHoldsItsForceWithSleepingOnBitForBitAsWithItOff) {
     }
   }
   EXPECT_GT(touching, 600);
+}
+
+// sleep.wake_on_centre_motion (session 12, opt-in): absent it is false (the old wake rule bit for
+// bit), true reaches the world, and a value that is not a boolean is an error naming the file and
+// its JSON path.
+TEST(SceneSleep, WakeOnCentreMotionReachesTheWorldAndABadValueNamesItsPath) {
+  nlohmann::json j = scene_json("paper/fruit_dish.json");
+  EXPECT_FALSE(parse_scene(j, "fruit_dish.json", ".").world.sleep.wake_on_centre_motion);
+  j["sleep"]["wake_on_centre_motion"] = true;
+  EXPECT_TRUE(parse_scene(j, "fruit_dish.json", ".").world.sleep.wake_on_centre_motion);
+  j["sleep"]["wake_on_centre_motion"] = "centre";
+  try {
+    parse_scene(j, "fruit_dish.json", ".");
+    ADD_FAILURE() << "a string was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/sleep/wake_on_centre_motion"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fruit_dish.json"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

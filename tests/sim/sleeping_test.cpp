@@ -120,32 +120,43 @@ TEST(Sleeping, BlockOnFloorFallsAsleepAndItsStateThenStopsChangingExactly) {
   EXPECT_TRUE(bit_identical(s.world.body(s.block).velocities, v));
 }
 
-TEST(Sleeping, WakesInTheStepAnotherBodyLandsOnIt) {
-  FloorAndBlock s(sleep_on());
-  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
-  const std::vector<Vec3> x = s.world.body(s.block).positions;
-  // A second block 30 mm above the first one's top (z = 0.05): it lands after ~78 ms.
-  const BodyId top = FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.03 + 0.025));
-  int woken_at = -1;
-  for (int i = 1; i <= 200 && woken_at < 0; ++i) {
+// Once the block sleeps, a second block is dropped from 30 mm above its top (z = 0.05): it lands
+// after ~78 ms. Steps until the lower block wakes (at most 200 steps), checking that it stays
+// bit-identical until then and is woken by the contact of that very step.
+struct Landing {
+  int woken_at = -1;            ///< step of the wake after the drop (-1: never)
+  BodyId top;
+  std::vector<Vec3> asleep_at;  ///< the lower block's positions while it slept
+};
+Landing drop_a_block_on_the_sleeping_one(FloorAndBlock& s) {
+  Landing landing;
+  if (!step_until_asleep(s.world, s.block, 3000).has_value()) return landing;
+  landing.asleep_at = s.world.body(s.block).positions;
+  landing.top = FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.03 + 0.025));
+  for (int i = 1; i <= 200 && landing.woken_at < 0; ++i) {
     const StepReport& r = s.world.step(kDt);
-    ASSERT_TRUE(r.all_finite);
+    EXPECT_TRUE(r.all_finite);
     if (!s.world.body(s.block).is_sleeping()) {
-      woken_at = i;
-      // Woken by the contact of this very step, not later.
+      landing.woken_at = i;
       EXPECT_EQ(r.bodies_woken, 1);
       EXPECT_GT(r.colliding_vertices, 0);
     } else {
-      EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, x)) << "sleeping block moved at step " << i;
+      EXPECT_TRUE(bit_identical(s.world.body(s.block).positions, landing.asleep_at)) << "sleeping block moved at step " << i;
     }
   }
-  ASSERT_GT(woken_at, 0) << "the lower block never woke";
+  return landing;
+}
+
+TEST(Sleeping, WakesInTheStepAnotherBodyLandsOnIt) {
+  FloorAndBlock s(sleep_on());
+  const Landing landing = drop_a_block_on_the_sleeping_one(s);
+  ASSERT_GT(landing.woken_at, 0) << "the lower block never slept or never woke";
   // Closed form: the top block falls 30 mm in sqrt(2 h / g) = 78 ms before it touches.
-  EXPECT_NEAR(woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
-  EXPECT_FALSE(s.world.body(top).is_sleeping());
+  EXPECT_NEAR(landing.woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
+  EXPECT_FALSE(s.world.body(landing.top).is_sleeping());
   // Awake, the lower block responds to the load: it moves again.
   for (int i = 0; i < 20; ++i) s.world.step(kDt);
-  EXPECT_FALSE(bit_identical(s.world.body(s.block).positions, x));
+  EXPECT_FALSE(bit_identical(s.world.body(s.block).positions, landing.asleep_at));
 }
 
 TEST(Sleeping, WakesWhenAnInstrumentTouchesIt) {
@@ -493,6 +504,97 @@ TEST(Sleeping, OnlyABodyThatLeftItsRestBallWakesTheSleepersNearIt) {
       EXPECT_TRUE(world.body(ids[2]).sleep.resting);
     }
   }
+}
+
+
+// SleepSettings::wake_on_centre_motion (session 12, opt-in), on hand-set states as above: the
+// middle of three blocks 1 mm apart is awake and both neighbours sleep. Turned in place about its
+// centre of mass by 0.05 rad, its corners (35 mm out) move 1.8 mm, out of its 1 mm rest ball, while
+// its centre stays: the default rule wakes both neighbours, the centre rule neither (and the body
+// still cannot fall asleep: its rest restarts). Moved 1.5 mm, its centre leaves the ball and both
+// wake. A drift in small steps is caught once it adds up: 0.6 mm, a turn (which restarts its rest
+// ball there), 0.6 mm again: inside its new rest ball, so the default rule wakes nobody, but 1.2 mm
+// from where it last woke its neighbours, so the centre rule wakes both.
+TEST(Sleeping, CentreMotionWakesTheNeighboursOnlyWhenTheCentreMoves) {
+  for (const bool centre_rule : {false, true}) {
+    WorldSettings settings = sleep_on();
+    settings.sleep.wake_on_centre_motion = centre_rule;
+    World world(settings);
+    std::vector<BodyId> ids;
+    for (int k = 0; k < 3; ++k) {
+      ids.push_back(FloorAndBlock::add_block(world, std::string(1, static_cast<char>('a' + k)), Vec3(k * 0.051, 0, 0.5)));
+    }
+    Body& mover = world.body(ids[1]);
+    const double r = settings.sleep.rest_distance();
+    auto put_neighbours_to_sleep = [&] {
+      for (int k : {0, 2}) {
+        Body& b = world.body(ids[static_cast<size_t>(k)]);
+        b.sleep.rest_anchor = b.positions;
+        b.sleep.sleeping = true;
+        b.sleep.resting = true;
+        b.sleep.box_lo = b.positions[0];
+        b.sleep.box_hi = b.positions[0];
+        for (const Vec3& x : b.positions) {
+          b.sleep.box_lo = b.sleep.box_lo.cwiseMin(x);
+          b.sleep.box_hi = b.sleep.box_hi.cwiseMax(x);
+        }
+      }
+    };
+    const std::vector<VertexInTet> none;
+    // One step of the rule: update the mover's rest (and wake centre), then wake from its motion.
+    auto step_rule = [&] {
+      put_neighbours_to_sleep();
+      update_sleep(world.bodies(), kDt, world.settings().sleep, {}, false);
+      return wake_touched_bodies(world.bodies(), none, world.settings().sleep);
+    };
+    auto centre = [&] {
+      Vec3 c = Vec3::Zero();
+      double m = 0.0;
+      for (size_t v = 0; v < mover.positions.size(); ++v) {
+        c += mover.masses[v] * mover.positions[v];
+        m += mover.masses[v];
+      }
+      return Vec3(c / m);
+    };
+    auto turn = [&](double angle) {
+      const Vec3 c = centre();
+      const Eigen::Matrix3d rot = Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix();
+      for (Vec3& x : mover.positions) x = c + rot * (x - c);
+      EXPECT_LT((centre() - c).norm(), 1e-12);
+    };
+    auto shift = [&](double dy) {
+      for (Vec3& x : mover.positions) x.y() += dy;
+    };
+    step_rule();     // the first look at the mover starts its rest ball (a new body counts as moving)
+    step_rule();     // at rest, nobody woken
+    ASSERT_TRUE(mover.sleep.resting);
+    EXPECT_EQ(step_rule(), 0);
+    turn(0.05);
+    EXPECT_EQ(step_rule(), centre_rule ? 0 : 2) << "turned in place";
+    EXPECT_FALSE(mover.sleep.resting) << "it left its rest ball, so it does not rest";
+    EXPECT_EQ(mover.sleep.rest_time, 0.0);
+    shift(1.5 * r);
+    EXPECT_EQ(step_rule(), 2) << "centre moved 1.5 r";
+    shift(0.6 * r);
+    EXPECT_EQ(step_rule(), 0) << "0.6 r: inside both balls";
+    turn(-0.05);
+    EXPECT_EQ(step_rule(), centre_rule ? 0 : 2) << "turned back in place";
+    shift(0.6 * r);
+    EXPECT_EQ(step_rule(), centre_rule ? 2 : 0) << "drift of 1.2 r since it last woke its neighbours";
+    EXPECT_TRUE(mover.sleep.resting) << "0.6 r inside the rest ball restarted at the turn";
+  }
+}
+
+// With the centre rule a block landing on a sleeping one still wakes it in the step of first
+// contact (the closed-form fall time, as WakesInTheStepAnotherBodyLandsOnIt): a falling body's
+// centre leaves its ball every step.
+TEST(Sleeping, CentreMotionStillWakesTheBlockALandingBlockHits) {
+  WorldSettings settings = sleep_on();
+  settings.sleep.wake_on_centre_motion = true;
+  FloorAndBlock s(settings);
+  const Landing landing = drop_a_block_on_the_sleeping_one(s);
+  ASSERT_GT(landing.woken_at, 0) << "the lower block never slept or never woke";
+  EXPECT_NEAR(landing.woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
 }
 
 }  // namespace
