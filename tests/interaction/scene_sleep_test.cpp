@@ -73,11 +73,13 @@ TEST(SceneSleep, CoarseProbeHoldsItsForceWithSleepingOnBitForBitAsWithItOff) {
   EXPECT_GT(touching, 600);
 }
 
-// sleep.wake_on_centre_motion (session 12, opt-in): absent it is false (the old wake rule bit for
-// bit), true reaches the world, and a value that is not a boolean is an error naming the file and
-// its JSON path.
+// sleep.wake_on_centre_motion (session 12, opt-in; the fruit dish ships it on): absent it is false
+// (the old wake rule bit for bit), true reaches the world, and a value that is not a boolean is an
+// error naming the file and its JSON path.
 TEST(SceneSleep, WakeOnCentreMotionReachesTheWorldAndABadValueNamesItsPath) {
   nlohmann::json j = scene_json("paper/fruit_dish.json");
+  EXPECT_TRUE(parse_scene(j, "fruit_dish.json", ".").world.sleep.wake_on_centre_motion);
+  j["sleep"].erase("wake_on_centre_motion");
   EXPECT_FALSE(parse_scene(j, "fruit_dish.json", ".").world.sleep.wake_on_centre_motion);
   j["sleep"]["wake_on_centre_motion"] = true;
   EXPECT_TRUE(parse_scene(j, "fruit_dish.json", ".").world.sleep.wake_on_centre_motion);
