@@ -73,7 +73,7 @@ struct SurfaceLeafScratch {
   std::vector<Aabb> boxes;                 ///< per slot: the triangle's box (m)
   std::vector<int> triangles;              ///< per slot: surface-triangle index
   int used = 0;                            ///< slots filled in this generation
-  std::uint64_t generation = 0;            ///< increases whenever a hierarchy or pose takes it over
+  std::uint64_t generation = 1;            ///< increases whenever a hierarchy or pose takes it over (0: none)
 };
 
 class SurfaceBvh {
@@ -191,7 +191,15 @@ class SurfaceBvh {
     LeafState& state = leaf_state_[static_cast<size_t>(n)];
     const auto first = static_cast<size_t>(node.first);
     if (state.own_epoch != pose_epoch_) {
-      if (scratch_ != nullptr) return ensure_leaf_in_scratch(n);
+      if (scratch_ != nullptr) {
+        // Already in the scratch generation this hierarchy owns at this pose: a lookup.
+        if (state.scratch_generation == ticket_.generation && ticket_.generation == scratch_->generation &&
+            ticket_.pose == pose_epoch_) {
+          const auto at = static_cast<size_t>(state.scratch_slot);
+          return {&scratch_->prepared[at], &scratch_->boxes[at], &scratch_->triangles[at]};
+        }
+        return ensure_leaf_in_scratch(n);
+      }
       fit_leaf(node.first, node.count, &prepared_[first], &triangle_boxes_[first]);
       state.own_epoch = pose_epoch_;
     }
