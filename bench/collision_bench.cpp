@@ -129,10 +129,8 @@ BENCHMARK(BM_BruteForceDetect)->Arg(1000)->Arg(2000)->Arg(5000)->Arg(10000)->Arg
 PenetrationDepthOptions depth_options(int64_t walk) {
   PenetrationDepthOptions o;
   o.surface_query = walk == 2 ? SurfaceQueryMethod::tet_walk
-                    : walk == 1 || walk == 3 ? SurfaceQueryMethod::tet_walk_rays
+                    : walk == 1 ? SurfaceQueryMethod::tet_walk_rays
                                 : SurfaceQueryMethod::bvh;
-  // walk:3 is the default (walk:1) with lazy leaf refits into each body's own arrays (session 11's layout).
-  o.bvh_leaf_scratch = walk != 3;
   return o;
 }
 
@@ -199,7 +197,7 @@ void BM_PenetrationDepth(benchmark::State& state) {
       benchmark::Counter(points, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_PenetrationDepth)
-    ->ArgsProduct({{1000, 10000, 30000, 100000}, {4}, {1}, {0, 1, 2, 3}})
+    ->ArgsProduct({{1000, 10000, 30000, 100000}, {4}, {1}, {0, 1, 2}})
     ->Args({100000, 8, 1, 0})->Args({100000, 8, 1, 1})->Args({100000, 8, 1, 2})
     ->Args({10000, 4, 0, 0})->Args({100000, 4, 0, 0})->Args({100000, 8, 0, 0})
     ->Args({10000, 4, 0, 2})->Args({100000, 4, 0, 2})->Args({100000, 8, 0, 2})

@@ -37,8 +37,6 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
 
 void PenetrationDepthSolver::ensure_bvh(Surface& s) {
   if (s.bvh_in_call == call_) return;
-  // Set every call: the solver (and its scratch) may have moved since the last.
-  s.bvh.set_leaf_scratch(options_.bvh_leaf_scratch ? &leaf_scratch_ : nullptr);
   if (s.bvh.mesh() != s.mesh) {
     s.bvh.build(*s.mesh, s.x);
     s.refits = 0;

@@ -53,10 +53,6 @@ struct PenetrationDepthOptions {
   /// boxes were fitted, a step only inflates them and refits the leaves queries reach (0: a full
   /// refit whenever anything moved). See SurfaceBvh.
   double bvh_lazy_refit_edges = 0.25;
-  /// Leaves a lazy step's queries reach are refitted into one scratch buffer shared by all
-  /// penetrated bodies (kept in cache) instead of each body's own arrays (false). The same results
-  /// bit for bit; only the memory touched differs (SurfaceBvh, "Leaf scratch").
-  bool bvh_leaf_scratch = true;
 };
 
 /// What the last compute() did (for tests, benchmarks and diagnostics).
@@ -151,7 +147,6 @@ class PenetrationDepthSolver {
   std::vector<int> fallback_exclude_;
   std::vector<SurfacePoint> fallback_hits_;
   std::vector<char> fallback_found_;
-  SurfaceLeafScratch leaf_scratch_;           ///< lazy leaf refits of every penetrated body (bvh_leaf_scratch)
 };
 
 }  // namespace pliant

@@ -103,7 +103,7 @@ void SurfaceBvh::build(const TetMesh& mesh, std::span<const Vec3> x) {
   }
   nodes_.reserve(static_cast<size_t>(2 * (n / kLeafSize + 1)));
   build_node(0, n, 0);
-  leaf_state_.assign(nodes_.size(), LeafState{});
+  leaf_epoch_.assign(nodes_.size(), 0);
   quad_.build(nodes_);
   fan_leaves_.resize(static_cast<size_t>(quad_.leaf_count()));
   full_refit();
@@ -121,47 +121,15 @@ void SurfaceBvh::remember_fitted_positions() {
   fitted_scale_ = scale;
 }
 
-void SurfaceBvh::fit_leaf(int first, int count, PreparedTriangle* prepared, Aabb* boxes) const {
-  for (int k = 0; k < count; ++k) {
-    const int tri = order_[static_cast<size_t>(first + k)];
+void SurfaceBvh::fit_leaf(const Node& node) const {
+  for (int j = node.first; j < node.first + node.count; ++j) {
+    const int tri = order_[static_cast<size_t>(j)];
     const Vec3 &a = corner(tri, 0), &b = corner(tri, 1), &c = corner(tri, 2);
-    Aabb& box = boxes[k];
+    Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
     box.min = a.cwiseMin(b).cwiseMin(c);
     box.max = a.cwiseMax(b).cwiseMax(c);
-    prepared[k] = PreparedTriangle::of(a, b, c);
+    prepared_[static_cast<size_t>(j)] = PreparedTriangle::of(a, b, c);
   }
-}
-
-SurfaceBvh::LeafData SurfaceBvh::ensure_leaf_in_scratch(int n) const {
-  SurfaceLeafScratch& s = *scratch_;
-  // Another hierarchy or another pose took the scratch over since: start a new generation (every
-  // slot of the old one becomes stale, since no leaf state holds the new number yet).
-  if (ticket_.generation != s.generation || ticket_.pose != pose_epoch_) {
-    ++s.generation;
-    s.used = 0;
-    ticket_.generation = s.generation;
-    ticket_.pose = pose_epoch_;
-  }
-  const Node& node = nodes_[static_cast<size_t>(n)];
-  LeafState& state = leaf_state_[static_cast<size_t>(n)];
-  if (state.scratch_generation != ticket_.generation) {
-    const int slot = s.used;
-    const auto needed = static_cast<size_t>(slot + node.count);
-    if (needed > s.prepared.size()) {
-      const size_t grown = std::max(needed, 2 * s.prepared.size());
-      s.prepared.resize(grown);
-      s.boxes.resize(grown);
-      s.triangles.resize(grown);
-    }
-    const auto at = static_cast<size_t>(slot);
-    fit_leaf(node.first, node.count, &s.prepared[at], &s.boxes[at]);
-    std::copy_n(&order_[static_cast<size_t>(node.first)], node.count, &s.triangles[at]);
-    s.used = slot + node.count;
-    state.scratch_generation = ticket_.generation;
-    state.scratch_slot = slot;
-  }
-  const auto at = static_cast<size_t>(state.scratch_slot);
-  return {&s.prepared[at], &s.boxes[at], &s.triangles[at]};
 }
 
 void SurfaceBvh::full_refit() {
@@ -170,9 +138,8 @@ void SurfaceBvh::full_refit() {
     Node& node = nodes_[static_cast<size_t>(i)];
     Aabb box;
     if (node.count > 0) {
-      const auto first = static_cast<size_t>(node.first);
-      fit_leaf(node.first, node.count, &prepared_[first], &triangle_boxes_[first]);
-      leaf_state_[static_cast<size_t>(i)].own_epoch = pose_epoch_;
+      fit_leaf(node);
+      leaf_epoch_[static_cast<size_t>(i)] = pose_epoch_;
       for (int j = node.first; j < node.first + node.count; ++j) {
         const Aabb& b = triangle_boxes_[static_cast<size_t>(j)];
         box.min = box.min.cwiseMin(b.min);
@@ -304,12 +271,12 @@ bool SurfaceBvh::first_ray_hit(const Vec3& origin, const Vec3& dir, int exclude_
       }
       continue;
     }
-    const LeafData leaf = ensure_leaf(n);
-    for (int i = 0; i < node.count; ++i) {
-      const int tri = leaf.triangles[i];
+    ensure_leaf(n);
+    for (int i = node.first; i < node.first + node.count; ++i) {
+      const int tri = order_[static_cast<size_t>(i)];
       if (excluded(tri, exclude_a, exclude_b)) continue;
       TriangleHit h;
-      if (ray_triangle_intersection(origin, dir, dir_squared, leaf.prepared[i], 0.0, best_t, h)) {
+      if (ray_triangle_intersection(origin, dir, dir_squared, prepared_[static_cast<size_t>(i)], 0.0, best_t, h)) {
         if (best_tri < 0 || h.t < best_t || (h.t == best_t && tri < best_tri)) {
           best_t = h.t;
           best_tri = tri;
@@ -372,7 +339,8 @@ void SurfaceBvh::visit_leaves_meeting(const Aabb& query, Leaf&& leaf) const {
       stack[top++] = n + 1;
       continue;
     }
-    leaf(node, ensure_leaf(n));
+    ensure_leaf(n);
+    leaf(node);
   }
 }
 
@@ -383,7 +351,7 @@ void SurfaceBvh::leaves_meeting(const Aabb& query, bool quad, std::vector<int>& 
     out.resize(static_cast<size_t>(quad_.leaves_meeting(query, out.data())));
     return;
   }
-  visit_leaves_meeting(query, [&](const Node& node, const LeafData&) { out.push_back(static_cast<int>(&node - nodes_.data())); });
+  visit_leaves_meeting(query, [&](const Node& node) { out.push_back(static_cast<int>(&node - nodes_.data())); });
 }
 
 void SurfaceBvh::fan_chunk_packet(const Vec3& end, const Aabb& node_query, std::span<const Vec3> origins,
@@ -397,8 +365,10 @@ void SurfaceBvh::fan_chunk_packet(const Vec3& end, const Aabb& node_query, std::
   const int leaves = quad_.leaves_meeting(node_query, fan_leaves_.data());
   for (int l = 0; l < leaves; ++l) {
     const int n = fan_leaves_[static_cast<size_t>(l)];
-    const LeafData leaf = ensure_leaf(n);
-    segment_packet_leaf(packet, leaf.prepared, leaf.boxes, leaf.triangles, nodes_[static_cast<size_t>(n)].count);
+    ensure_leaf(n);
+    const Node& node = nodes_[static_cast<size_t>(n)];
+    const auto first = static_cast<size_t>(node.first);
+    segment_packet_leaf(packet, &prepared_[first], &triangle_boxes_[first], &order_[first], node.count);
   }
   for (int i = 0; i < m; ++i) {
     const auto k = static_cast<size_t>(i);
@@ -451,9 +421,9 @@ void SurfaceBvh::fan_chunk_scalar(const Vec3& end, int exclude_end, const Aabb& 
   // Every node and triangle whose box meets the fan's box; a triangle is tested against each
   // segment whose own box it meets. The smallest (t, triangle) per segment is kept, as the
   // nearest-first traversal of first_ray_hit keeps it, so the order of visits does not matter.
-  visit_leaves_meeting(node_query, [&](const Node& node, const LeafData& leaf) {
-    for (int j = 0; j < node.count; ++j) {
-      const Aabb& box = leaf.boxes[j];
+  visit_leaves_meeting(node_query, [&](const Node& node) {
+    for (int j = node.first; j < node.first + node.count; ++j) {
+      const Aabb& box = triangle_boxes_[static_cast<size_t>(j)];
       if (!boxes_meet(box, fan)) continue;
       // Bit i: the triangle's box meets segment i's box (the same six closed comparisons per
       // segment, two segments per SSE2 compare; padding segments never meet).
@@ -478,13 +448,13 @@ void SurfaceBvh::fan_chunk_scalar(const Vec3& end, int exclude_end, const Aabb& 
         mask |= static_cast<unsigned>(meets) << i;
       }
 #endif
-      const int tri = leaf.triangles[j];
+      const int tri = order_[static_cast<size_t>(j)];
       for (; mask != 0; mask &= mask - 1) {
         const int i = std::countr_zero(mask);
         if (any_exclude && excluded(tri, exclude_origins[static_cast<size_t>(i)], exclude_end)) continue;
         TriangleHit h;
         if (ray_triangle_intersection(origins[static_cast<size_t>(i)], dir[i], dir_squared[i],
-                                      leaf.prepared[j], 0.0, best_t[i], h)) {
+                                      prepared_[static_cast<size_t>(j)], 0.0, best_t[i], h)) {
           if (best_tri[i] < 0 || h.t < best_t[i] || (h.t == best_t[i] && tri < best_tri[i])) {
             best_t[i] = h.t;
             best_tri[i] = tri;
@@ -533,11 +503,11 @@ bool SurfaceBvh::nearest_point(const Vec3& p, int exclude, SurfacePoint& nearest
       }
       continue;
     }
-    const LeafData leaf = ensure_leaf(n);
-    for (int i = 0; i < node.count; ++i) {
-      const int tri = leaf.triangles[i];
+    ensure_leaf(n);
+    for (int i = node.first; i < node.first + node.count; ++i) {
+      const int tri = order_[static_cast<size_t>(i)];
       if (excluded(tri, exclude, -1)) continue;
-      if (box_distance_squared(p, leaf.boxes[i]) > best_d2) continue;
+      if (box_distance_squared(p, triangle_boxes_[static_cast<size_t>(i)]) > best_d2) continue;
       const Vec3 w = closest_point_on_triangle_barycentric(p, corner(tri, 0), corner(tri, 1), corner(tri, 2));
       const Vec3 q = w[0] * corner(tri, 0) + w[1] * corner(tri, 1) + w[2] * corner(tri, 2);
       const double d2 = (q - p).squaredNorm();

@@ -21,16 +21,6 @@
 // Queries are const but fill that per-leaf cache (mutable): a SurfaceBvh is not shared between
 // threads.
 //
-// Leaf scratch (session 12). Without one (the default of a bare SurfaceBvh) a lazy pose's leaves are
-// refitted in place, into the per-triangle arrays of this body (128 bytes per triangle spread over
-// arrays of the whole surface). With a SurfaceLeafScratch (set_leaf_scratch; PenetrationDepthSolver
-// gives every penetrated body the same one) they are refitted into that buffer instead, in the
-// order the queries first reach them, and the buffer is reused by the next body or pose: the
-// leaves a group's queries touch then lie together in a few kilobytes that stay in the cache,
-// instead of being written back into megabytes of per-body arrays every step. The values are the
-// same fit_leaf's (same operations on the same corners), so every query answers bit for bit the
-// same. A full refit or build still fills the body's own arrays (their node boxes need them).
-//
 // The fan query (all edges ending at one border point) visits every node whose box meets the fan's
 // box instead of ordering by entry parameter: it keeps the same minimum per edge. With AVX it finds
 // those leaves through a 4-wide view of the tree (quad_box_tree.h): the same leaves in the same order.
@@ -63,17 +53,6 @@ enum class SurfaceBvhUpdate {
   lazy,       ///< node boxes kept, inflated by the motion; leaves refitted when a query reaches them
   refit,      ///< all boxes recomputed bottom-up on the same tree
   rebuild,    ///< a new tree (as build())
-};
-
-/// Exact per-triangle data (prepared triangle, box, surface-triangle index) of the leaves that a
-/// lazy pose's queries reached, shared by SurfaceBvh instances (see "Leaf scratch" above). Holds one
-/// hierarchy's pose at a time: a hierarchy that finds another generation in it starts a new one.
-struct SurfaceLeafScratch {
-  std::vector<PreparedTriangle> prepared;  ///< per slot: corner and edges
-  std::vector<Aabb> boxes;                 ///< per slot: the triangle's box (m)
-  std::vector<int> triangles;              ///< per slot: surface-triangle index
-  int used = 0;                            ///< slots filled in this generation
-  std::uint64_t generation = 1;            ///< increases whenever a hierarchy or pose takes it over (0: none)
 };
 
 class SurfaceBvh {
@@ -115,16 +94,6 @@ class SurfaceBvh {
   /// bit for bit, segment_packet.h) or always by the scalar loop (false; for tests and benchmarks).
   void set_segment_packets(bool on) { segment_packets_ = on; }
 
-  /// Lazy refits of leaves go into `scratch` (which must outlive the queries; nullptr: into this
-  /// hierarchy's own arrays, the default). The same results bit for bit either way.
-  void set_leaf_scratch(SurfaceLeafScratch* scratch) {
-    if (scratch == scratch_) return;
-    // Generation numbers are per scratch: forget every slot of the old one.
-    scratch_ = scratch;
-    ticket_ = ScratchTicket{};
-    for (LeafState& state : leaf_state_) state.scratch_generation = 0;
-  }
-
   /// Leaves (node indices) whose box and every ancestor's box meet `query`, in depth-first order,
   /// as the fan query finds them: by the binary tree (quad = false) or its 4-wide view (true;
   /// quad_box_tree.h). For tests: both lists must be equal.
@@ -154,59 +123,17 @@ class SurfaceBvh {
   static constexpr int kMaxStack = 128;
   static constexpr int kFanChunk = 16;
 
-  /// A leaf's exact per-triangle data, in leaf order (node.count entries each).
-  struct LeafData {
-    const PreparedTriangle* prepared;
-    const Aabb* boxes;
-    const int* triangles;  ///< surface-triangle indices
-  };
-  /// Per node: when its exact data was last made current, and where.
-  struct LeafState {
-    std::uint64_t own_epoch = 0;           ///< pose_epoch_ of the data in this hierarchy's arrays
-    std::uint64_t scratch_generation = 0;  ///< scratch generation of the data in scratch_
-    int scratch_slot = 0;                  ///< its first slot there
-  };
-  /// Which scratch generation this hierarchy owns, for which pose. A copy owns none (generation 0
-  /// is never a scratch's), so two copies never read each other's slots.
-  struct ScratchTicket {
-    std::uint64_t generation = 0;
-    std::uint64_t pose = 0;
-    ScratchTicket() = default;
-    ScratchTicket(const ScratchTicket&) {}
-    ScratchTicket& operator=(const ScratchTicket&) {
-      generation = 0;
-      return *this;
-    }
-    ScratchTicket(ScratchTicket&&) = default;
-    ScratchTicket& operator=(ScratchTicket&&) = default;
-  };
-
   int build_node(int begin, int end, int depth);
   void full_refit();
-  /// Fits triangles order_[first, first + count) into prepared[0, count) and boxes[0, count).
-  void fit_leaf(int first, int count, PreparedTriangle* prepared, Aabb* boxes) const;
-  /// Makes the exact data of leaf `n` current and returns it (valid until the next call).
-  LeafData ensure_leaf(int n) const {
-    const Node& node = nodes_[static_cast<size_t>(n)];
-    LeafState& state = leaf_state_[static_cast<size_t>(n)];
-    const auto first = static_cast<size_t>(node.first);
-    if (state.own_epoch != pose_epoch_) {
-      if (scratch_ != nullptr) {
-        // Already in the scratch generation this hierarchy owns at this pose: a lookup.
-        if (state.scratch_generation == ticket_.generation && ticket_.generation == scratch_->generation &&
-            ticket_.pose == pose_epoch_) {
-          const auto at = static_cast<size_t>(state.scratch_slot);
-          return {&scratch_->prepared[at], &scratch_->boxes[at], &scratch_->triangles[at]};
-        }
-        return ensure_leaf_in_scratch(n);
-      }
-      fit_leaf(node.first, node.count, &prepared_[first], &triangle_boxes_[first]);
-      state.own_epoch = pose_epoch_;
+  void fit_leaf(const Node& node) const;
+  /// Makes the exact data (triangle boxes, prepared triangles) of leaf `n` current.
+  void ensure_leaf(int n) const {
+    if (leaf_epoch_[static_cast<size_t>(n)] != pose_epoch_) {
+      fit_leaf(nodes_[static_cast<size_t>(n)]);
+      leaf_epoch_[static_cast<size_t>(n)] = pose_epoch_;
     }
-    return {&prepared_[first], &triangle_boxes_[first], &order_[first]};
   }
-  LeafData ensure_leaf_in_scratch(int n) const;
-  /// Calls leaf(node, data) for every leaf whose box meets `query` (depth first), its data made current.
+  /// Calls leaf(node) for every leaf whose box meets `query` (depth first), its data made current.
   template <class Leaf>
   void visit_leaves_meeting(const Aabb& query, Leaf&& leaf) const;
   /// One chunk of first_segment_hits by the segment-packet kernel (no excluded vertices).
@@ -231,12 +158,10 @@ class SurfaceBvh {
   double fitted_scale_ = 0.0;               ///< largest |coordinate| of those positions (m)
   double slack_ = 0.0;                      ///< inflation of node boxes for queries (m)
   std::uint64_t pose_epoch_ = 0;
-  // Per entry of order_ (leaf order), valid for a leaf whose own_epoch equals pose_epoch_.
+  // Per entry of order_ (leaf order), valid for a leaf whose leaf_epoch_ equals pose_epoch_.
   mutable std::vector<Aabb> triangle_boxes_;
   mutable std::vector<PreparedTriangle> prepared_;  ///< corner and edges (triangle_queries.h)
-  mutable std::vector<LeafState> leaf_state_;       ///< per node
-  SurfaceLeafScratch* scratch_ = nullptr;           ///< lazy leaf refits go here if set
-  mutable ScratchTicket ticket_;                    ///< the scratch generation this hierarchy owns
+  mutable std::vector<std::uint64_t> leaf_epoch_;   ///< per node
   bool segment_packets_ = true;                     ///< fan queries may use the AVX kernel
   QuadBoxTree quad_;                                ///< 4-wide view of nodes_ for the packet fan query
   mutable std::vector<int> fan_leaves_;             ///< leaves a fan chunk meets (quad_.leaf_count())

@@ -259,62 +259,6 @@ TEST(SurfaceBvh, RefitFollowsEveryPoseExactlyAsAFreshBuild) {
   EXPECT_EQ(bvh.refit(small, 0.0), SurfaceBvhUpdate::unchanged);
 }
 
-TEST(SurfaceBvh, LeafScratchAnswersAsTheOwnArraysBitForBit) {
-  // Two hierarchies (two blocks) share one leaf scratch and follow poses of lazy steps, full refits
-  // and rebuilds, their queries interleaved so each takes the scratch over from the other several
-  // times per pose; a copy of one (which must not read the other's slots) joins in. Every query of
-  // each equals a fresh build's at the same positions (expect_same_queries: rays, nearest points,
-  // fans; bit for bit), and a twin without the scratch (lazy leaves refitted into its own arrays)
-  // reports the same updates.
-  const auto mesh_a = make_box_mesh({Vec3(1.0, 0.6, 0.4), 10, 6, 4});
-  const auto mesh_b = make_box_mesh({Vec3(0.8, 0.7, 0.5), 7, 6, 5});
-  std::mt19937 rng(31);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto moved = [&](const std::vector<Vec3>& x, double eps) {
-    std::vector<Vec3> y = x;
-    for (Vec3& p : y) p += eps * Vec3(u(rng), u(rng), u(rng));
-    return y;
-  };
-  std::vector<Vec3> xa = jittered(*mesh_a, 0.02, 41), xb = jittered(*mesh_b, 0.02, 42);
-  SurfaceLeafScratch scratch;
-  SurfaceBvh a, b, a_own, b_own;
-  a.build(*mesh_a, xa);
-  b.build(*mesh_b, xb);
-  a_own.build(*mesh_a, xa);
-  b_own.build(*mesh_b, xb);
-  a.set_leaf_scratch(&scratch);
-  b.set_leaf_scratch(&scratch);
-  // 2 mm: lazy (0.25 of a 0.1 m cell); 8 cm: a full refit; every fourth full update a rebuild.
-  const double motions[] = {2e-3, 1e-3, 8e-2, 2e-3, 0.0, 1.5e-3, 8e-2, 8e-2, 2e-3, 2e-3};
-  unsigned seed = 100;
-  int lazy = 0, step = 0;
-  std::uint64_t generations = scratch.generation;
-  for (const double eps : motions) {
-    SCOPED_TRACE(step);
-    xa = moved(xa, eps);
-    xb = moved(xb, 0.5 * eps);
-    const bool rebuild = step % 4 == 3;
-    const SurfaceBvhUpdate ua = a.refit(xa, 0.25, rebuild), ub = b.refit(xb, 0.25, rebuild);
-    EXPECT_EQ(ua, a_own.refit(xa, 0.25, rebuild));
-    EXPECT_EQ(ub, b_own.refit(xb, 0.25, rebuild));
-    lazy += (ua == SurfaceBvhUpdate::lazy) + (ub == SurfaceBvhUpdate::lazy);
-    expect_same_queries(a, *mesh_a, xa, seed++);
-    expect_same_queries(b, *mesh_b, xb, seed++);
-    expect_same_queries(a, *mesh_a, xa, seed++);
-    expect_same_queries(a_own, *mesh_a, xa, seed++);
-    // A copy holds a's leaf states but owns no generation: it refits into the scratch afresh.
-    const SurfaceBvh copy = a;
-    expect_same_queries(b, *mesh_b, xb, seed++);
-    expect_same_queries(copy, *mesh_a, xa, seed++);
-    expect_same_queries(a, *mesh_a, xa, seed++);
-    ++step;
-  }
-  EXPECT_GE(lazy, 8);
-  // The scratch was taken over again and again (else this test would not exercise it).
-  EXPECT_GT(scratch.generation - generations, 30u);
-  EXPECT_GT(scratch.used, 0);
-}
-
 TEST(ContactTriangle, BoundedSearchGivesTheUnboundedAnswer) {
   // find_contact_triangle with a bound at or above the first hit, or a bound below every hit (it
   // then searches again unbounded), returns exactly what the unbounded search returns.

@@ -108,35 +108,6 @@ TEST(PenetrationDepthWalk, RaysByTheWalkAreBitIdenticalToTheBvhPath) {
   EXPECT_GT(walked, 600);
 }
 
-TEST(PenetrationDepthWalk, LeafScratchGivesTheSameContactsBitForBit) {
-  // The lazy leaf refits into one scratch shared by the penetrated bodies (default) against each
-  // body's own arrays (session 11's layout), for the default query and the all-BVH one, over poses
-  // of lazy steps (2 mm, 1 cm) and full refits (10 cm): every field of every contact equal.
-  for (const SurfaceQueryMethod m : {SurfaceQueryMethod::tet_walk_rays, SurfaceQueryMethod::bvh}) {
-    Scene s = overlapping_boxes(3);
-    SpatialHash hash;
-    PenetrationDepthOptions own_arrays = with(m);
-    own_arrays.bvh_leaf_scratch = false;
-    PenetrationDepthSolver scratch(with(m)), own(own_arrays);
-    std::vector<VertexInTet> colliding;
-    std::vector<VertexContact> a, b;
-    int lazy = 0;
-    for (int step = 0; step < 7; ++step) {
-      const auto bodies = s.bodies();
-      hash.detect(bodies, CollisionFilter::from_bodies(bodies), colliding);
-      scratch.compute(bodies, colliding, a);
-      own.compute(bodies, colliding, b);
-      ASSERT_GT(a.size(), 100u);
-      ASSERT_EQ(a.size(), b.size());
-      for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(same_bits(a[i], b[i])) << "step " << step << " contact " << i;
-      lazy += scratch.stats().surfaces_lazy;
-      EXPECT_EQ(scratch.stats().surfaces_lazy, own.stats().surfaces_lazy);
-      move(s, step % 3 == 2 ? 0.1 : (step % 2 == 0 ? 2e-3 : 1e-2), 20u + static_cast<unsigned>(step));
-    }
-    EXPECT_GT(lazy, 6);
-  }
-}
-
 TEST(PenetrationDepthWalk, EdgesByTheWalkMatchTheBvhWhereNoEdgeRecrosses) {
   Scene s = overlapping_boxes(2);
   SpatialHash hash;
