@@ -102,6 +102,8 @@ class DeformationRegion {
 
  private:
   int add_vertex(std::span<Body* const> bodies, int body, int vertex);
+  /// Sorts triples_ by (owner, partner) into std::sort's order (deformation_region.cpp).
+  void sort_triples();
 
   std::vector<DisplacementVertex> vertices_;
   std::vector<ComparisonPartner> partners_;
@@ -123,8 +125,6 @@ class DeformationRegion {
   std::vector<char> flag_;      ///< per region vertex: has a partner / needed by the search
   std::vector<Triple> sorted_triples_;  ///< scratch of sort_triples()
   std::vector<int> owner_offsets_;      ///< scratch of sort_triples(): per owner, where its triples go
-  /// Sorts triples_ by (owner, partner) into std::sort's order (deformation_region.cpp).
-  void sort_triples();
   std::vector<int> group_of_;   ///< per body slot: group index or -1
 };
 

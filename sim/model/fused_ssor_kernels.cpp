@@ -1,6 +1,5 @@
 #include "sim/model/fused_ssor_kernels.h"
 
-
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 #define PLIANT_FUSED_SWEEPS 1
