@@ -37,11 +37,27 @@ struct FusedSsorSystem {
   const char* fixed;        ///< nonzero: a fixed (decoupled) row
   double s;                 ///< h (beta + h)
   size_t n;                 ///< rows (vertices)
+  /// Optional (session 13): the transposed upper blocks by row of A's lower triangle, L_ik =
+  /// K'_ji^T for the blocks (j, i), j < i, ascending j (transpose_lower_blocks); with them the
+  /// forward sweep gathers row i's sum from the rows before it instead of scattering row j's into
+  /// the rows after it, the same sums in the same order. nullptr: the scatter.
+  const double* lower_blocks = nullptr;
+  const int* lower_rows = nullptr;     ///< the row j of each lower block
+  const int* lower_offsets = nullptr;  ///< n + 1 offsets: row i's lower blocks [lower_offsets[i], lower_offsets[i + 1])
 };
+
+/// out's block k = K'_ji^T for the upper block upper_blocks[k] = (j, i), j = lower_rows[k]
+/// (column-major 3x3, so its column m is row m of K'_ji), or zero when row j is fixed (a fixed row
+/// sends nothing in the forward sweep). out holds 9 count + 4 doubles: the last four are zeroed
+/// padding, read (never used) by the third column's 4-lane load of the last block. Only where
+/// fused_sweeps_available().
+void transpose_lower_blocks(const double* blocks, const int* upper_blocks, const int* lower_rows, const char* fixed,
+                            size_t count, double* out);
 
 /// One SSOR-PCG iteration's sweeps in Eisenstat's form (corotational_fem.cpp, solve_ssor), vectors
 /// packed xyz per vertex: t = (D + L^T)^-1 p (backward), then q = t + (D + L)^-1 (p - D t)
-/// (forward; acc is n entries of scratch); returns p . q. Only where fused_sweeps_available().
+/// (forward; acc is n entries of scratch: with the lower blocks it holds s y_i of the rows solved);
+/// returns p . q. Only where fused_sweeps_available().
 double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const double* p, double* t, double* q, double* acc);
 
 /// The CG update after the sweeps: dv += a z, r -= a q, Dr = D r; returns r . Dr. Only where
