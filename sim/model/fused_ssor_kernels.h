@@ -4,7 +4,9 @@
 // arithmetic in one fixed order, ~35 instructions per block visit. Here a block's three columns
 // are one 4-lane load each (the fourth lane is ignored or masked to zero):
 //   gather  a += B t_j   (backward sweep): three FMAs into three accumulators, one per column;
-//   scatter acc_j += B^T y (forward sweep): the column dot products c_k . y by two horizontal adds.
+//   scatter acc_j += B^T y (forward sweep): the column dot products c_k . y by two horizontal adds;
+//   or (session 13, what the solver runs) the forward sweep gathers acc_i = sum_j L_ij s y_j from a
+//   transposed copy of the blocks in lower-triangle rows: three products and adds, the same sums.
 // The sums are the same but rounded differently (FMA keeps the product unrounded, the order of
 // the terms differs), so the solve's iterates differ from the exact path's in the last bits and
 // the CG residual test decides the rest: an approximation under the project's rule (tolerance,
