@@ -882,6 +882,31 @@ void CorotationalFem::set_vector_kernels(bool on) {
   vector_kernels_ = on && stiffness_row_kernels_available() && rotation_batch_avx2_available();
 }
 
+void CorotationalFem::build_lower_pattern() const {
+  if (block_row_offsets_.empty()) return;  // no assembled K'
+  const size_t n = block_row_offsets_.size() - 1;
+  if (lower_offsets_.size() == n + 1) return;
+  // The upper triangle's blocks by column (built once: the sparsity is the mesh's). Rows are
+  // visited ascending, so each column's list is ascending in the row.
+  lower_offsets_.assign(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    for (auto k = static_cast<size_t>(block_row_offsets_[i]) + 1; k < static_cast<size_t>(block_row_offsets_[i + 1]); ++k) {
+      lower_offsets_[static_cast<size_t>(block_cols_[k]) + 1]++;
+    }
+  }
+  for (size_t i = 0; i < n; ++i) lower_offsets_[i + 1] += lower_offsets_[i];
+  lower_rows_.resize(static_cast<size_t>(lower_offsets_[n]));
+  lower_blocks_.resize(lower_rows_.size());
+  std::vector<int> fill(lower_offsets_.begin(), lower_offsets_.end() - 1);
+  for (size_t i = 0; i < n; ++i) {
+    for (auto k = static_cast<size_t>(block_row_offsets_[i]) + 1; k < static_cast<size_t>(block_row_offsets_[i + 1]); ++k) {
+      const auto slot = static_cast<size_t>(fill[static_cast<size_t>(block_cols_[k])]++);
+      lower_rows_[slot] = static_cast<int>(i);
+      lower_blocks_[slot] = static_cast<int>(k);
+    }
+  }
+}
+
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)
 // in Eisenstat's form (Eisenstat 1981; Saad, Iterative Methods for Sparse Linear Systems, 9.2.3):
 // with A = (D + L) + (D + L^T) - D, the product A p needs no pass of its own. The recurrences run on
@@ -909,8 +934,15 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   double scale = rz > 0.0 ? residual / std::sqrt(rz) : 0.0;
   const double tolerance = accuracy_.solver_tolerance;
   int it = 0;
+  if (fused_sweeps_) {  // the forward sweep gathers from the transposed blocks (session 13, the same bits)
+    build_lower_pattern();
+    lower_transposed_.resize(9 * lower_blocks_.size() + 4);
+    transpose_lower_blocks(sweeps.blocks, lower_blocks_.data(), lower_rows_.data(), sweeps.fixed,
+                           lower_blocks_.size(), lower_transposed_.data());
+  }
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
-                              sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n};
+                              sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
+                              lower_transposed_.data(), lower_rows_.data(), lower_offsets_.data()};
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     double pq = 0.0, rz_next = 0.0, a = 0.0;

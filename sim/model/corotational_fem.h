@@ -341,8 +341,12 @@ class CorotationalFem final : public DeformationModel {
   /// ascending j: the order the serial product scatters them in) before its own row, the same bits.
   void apply_stiffness_pair_parallel(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
                                      std::span<Vec3> yb) const;
+  /// Builds lower_offsets_, lower_rows_ and lower_blocks_ from the block pattern (once).
+  void build_lower_pattern() const;
   /// The transposed upper blocks by column: for row i, the blocks (j, i) with j < i, ascending j.
   mutable std::vector<int> lower_offsets_, lower_rows_, lower_blocks_;
+  /// The fused forward sweep's K'_ji^T in lower_blocks_' order, zero for fixed rows j, + 4 padding (per solve).
+  std::vector<double> lower_transposed_;
   mutable std::vector<Mat3> tet_force_scratch_;  ///< per tet: -V P Dm^-T of the parallel pass (N)
   std::vector<int> dirty_rows_;                  ///< rows the reuse step sums again (parallel path)
   std::vector<char> tet_moved_;                  ///< per tet: its rotation left the reuse tolerance

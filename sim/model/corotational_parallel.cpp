@@ -78,27 +78,7 @@ void CorotationalFem::assemble_rows_parallel(std::span<const int> rows, const Ma
 void CorotationalFem::apply_stiffness_pair_parallel(std::span<const Vec3> a, std::span<Vec3> ya,
                                                     std::span<const Vec3> b, std::span<Vec3> yb) const {
   const size_t n = ya.size();
-  if (lower_offsets_.size() != n + 1) {
-    // The upper triangle's blocks by column (built once: the sparsity is the mesh's). Rows are
-    // visited ascending, so each column's list is ascending in the row.
-    lower_offsets_.assign(n + 1, 0);
-    for (size_t i = 0; i < n; ++i) {
-      for (auto k = static_cast<size_t>(block_row_offsets_[i]) + 1; k < static_cast<size_t>(block_row_offsets_[i + 1]); ++k) {
-        lower_offsets_[static_cast<size_t>(block_cols_[k]) + 1]++;
-      }
-    }
-    for (size_t i = 0; i < n; ++i) lower_offsets_[i + 1] += lower_offsets_[i];
-    lower_rows_.resize(static_cast<size_t>(lower_offsets_[n]));
-    lower_blocks_.resize(lower_rows_.size());
-    std::vector<int> fill(lower_offsets_.begin(), lower_offsets_.end() - 1);
-    for (size_t i = 0; i < n; ++i) {
-      for (auto k = static_cast<size_t>(block_row_offsets_[i]) + 1; k < static_cast<size_t>(block_row_offsets_[i + 1]); ++k) {
-        const auto slot = static_cast<size_t>(fill[static_cast<size_t>(block_cols_[k])]++);
-        lower_rows_[slot] = static_cast<int>(i);
-        lower_blocks_[slot] = static_cast<int>(k);
-      }
-    }
-  }
+  build_lower_pattern();
   const double* m = blocks_.data()->data();
   const int* cols = block_cols_.data();
   // Row i of the serial row_product, with what the rows before it scattered into y_i gathered first

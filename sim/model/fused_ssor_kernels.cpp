@@ -1,5 +1,7 @@
 #include "sim/model/fused_ssor_kernels.h"
 
+#include <algorithm>
+
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 #define PLIANT_FUSED_SWEEPS 1
@@ -121,6 +123,42 @@ PLIANT_AVX2_FMA inline void scatter(const double* blocks, const int* cols, size_
   }
 }
 
+/// x as it is, hidden from the optimiser: this file is compiled with "fma" and GCC contracts a * b + c
+/// into one FMA (-ffp-contract=fast), which would round differently; a product passed through here
+/// is rounded on its own, as the scatter's (no instruction is emitted).
+PLIANT_AVX2_FMA inline __m256d rounded(__m256d x) {
+  asm("" : "+x"(x));
+  return x;
+}
+
+/// L y for one transposed block L = K'_ji^T (column m = row m of K'_ji; the fourth lane of each
+/// 4-lane load is the next entry, a finite product never used) and y = s y_j: entry k =
+/// (L_k0 y_0 + L_k1 y_1) + L_k2 y_2 = (B_0k y_0 + B_1k y_1) + B_2k y_2, the scatter's sum for
+/// (B^T y)_k: the same products paired in the same order (the scatter's fourth term q_k3 = B_3k * 0
+/// is a zero, which can change only the sign of a zero sum, and acc + (+-0) is acc: acc starts at
+/// +0 and a sum is -0 only when both addends are).
+PLIANT_AVX2_FMA inline __m256d transposed_block_product(const double* L, const double* y) {
+  const __m256d p0 = rounded(_mm256_mul_pd(_mm256_loadu_pd(L), _mm256_broadcast_sd(y)));
+  const __m256d p1 = rounded(_mm256_mul_pd(_mm256_loadu_pd(L + 3), _mm256_broadcast_sd(y + 1)));
+  const __m256d p2 = rounded(_mm256_mul_pd(_mm256_loadu_pd(L + 6), _mm256_broadcast_sd(y + 2)));
+  return _mm256_add_pd(_mm256_add_pd(p0, p1), p2);
+}
+
+/// sum_k L_k sy_{rows[k]} over [first, last), k ascending (j ascending): acc_i as the scatter leaves
+/// it, each block's product added in the order the rows before i sent theirs (lane 3 not zero).
+/// Two blocks per turn (fewer loop instructions per block; the adds stay in order).
+PLIANT_AVX2_FMA inline __m256d gather_lower(const double* lower, const int* rows, size_t first, size_t last,
+                                            const double* sy) {
+  __m256d a = _mm256_setzero_pd();
+  size_t k = first;
+  for (; k + 1 < last; k += 2) {
+    a = _mm256_add_pd(a, transposed_block_product(lower + 9 * k, sy + 3 * static_cast<size_t>(rows[k])));
+    a = _mm256_add_pd(a, transposed_block_product(lower + 9 * (k + 1), sy + 3 * static_cast<size_t>(rows[k + 1])));
+  }
+  if (k < last) a = _mm256_add_pd(a, transposed_block_product(lower + 9 * k, sy + 3 * static_cast<size_t>(rows[k])));
+  return a;
+}
+
 /// Prefetches the blocks of row k (session 7: the hardware prefetcher misses the backward sweep's
 /// descending stream), a line every 128 bytes to the row's end. (Session 12 measured five fixed
 /// lines without the loop: 17 instructions fewer per row but the backward sweep ~10% slower at the
@@ -129,6 +167,41 @@ PLIANT_AVX2_FMA inline void prefetch_row(const double* blocks, const int* offset
   const auto* line = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k]));
   const auto* end = reinterpret_cast<const char*>(blocks + 9 * static_cast<size_t>(offsets[k + 1]));
   for (; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
+}
+
+/// The forward sweep with the lower blocks (session 13): row i gathers acc_i = sum_{j < i} L_ij s y_j
+/// from the s y_j the rows before it stored in acc (a fixed row stores zeros, and its transposed
+/// blocks are zero), instead of the rows before it scattering into acc_i. Every other value is the
+/// scatter loop's expression; returns p . q.
+PLIANT_AVX2_FMA double forward_sweep_gathered(const FusedSsorSystem& sys, const double* p, const double* t, double* q,
+                                              double* sy) {
+  const double* lower = sys.lower_blocks;
+  const int* rows = sys.lower_rows;
+  const int* offsets = sys.lower_offsets;
+  const double* D = sys.D;
+  const double* D_inverse = sys.D_inverse;
+  const char* fixed = sys.fixed;
+  const size_t n = sys.n;
+  const __m256d s = _mm256_set1_pd(sys.s);
+  __m256d pq = _mm256_setzero_pd();
+  for (size_t i = 0; i < n; ++i) {
+    const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
+    const __m256d u = _mm256_sub_pd(pi, mat_vec(D + 9 * i, ti));
+    if (fixed[i] != 0) {  // y = u, nothing sent
+      const __m256d qi = _mm256_add_pd(ti, u);
+      store3(q + 3 * i, qi);
+      pq = _mm256_fmadd_pd(pi, qi, pq);
+      store3(sy + 3 * i, _mm256_setzero_pd());
+      continue;
+    }
+    const __m256d a = gather_lower(lower, rows, static_cast<size_t>(offsets[i]), static_cast<size_t>(offsets[i + 1]), sy);
+    const __m256d y = clear_lane3(mat_vec(D_inverse + 9 * i, _mm256_sub_pd(u, a)));
+    const __m256d qi = _mm256_add_pd(ti, y);
+    store3(q + 3 * i, qi);
+    pq = _mm256_fmadd_pd(pi, qi, pq);
+    store3(sy + 3 * i, _mm256_mul_pd(s, y));
+  }
+  return horizontal_sum(pq);
 }
 
 }  // namespace
@@ -158,8 +231,9 @@ PLIANT_AVX2_FMA double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const 
   const size_t n = sys.n;
   const __m256d s = _mm256_set1_pd(sys.s);
   const __m256d zero = _mm256_setzero_pd();
+  const bool gathered = sys.lower_blocks != nullptr;
   for (size_t i = n; i-- > 0;) {
-    store3(acc + 3 * i, zero);
+    if (!gathered) store3(acc + 3 * i, zero);
     if (fixed[i] != 0) {
       t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
       continue;
@@ -168,6 +242,7 @@ PLIANT_AVX2_FMA double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const 
     const __m256d a = gather(blocks, cols, static_cast<size_t>(offsets[i]) + 1, static_cast<size_t>(offsets[i + 1]), t);
     store3(t + 3 * i, mat_vec(D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
   }
+  if (gathered) return forward_sweep_gathered(sys, p, t, q, acc);
   __m256d pq = _mm256_setzero_pd();
   for (size_t i = 0; i < n; ++i) {
     const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
@@ -213,6 +288,25 @@ PLIANT_AVX2_FMA void fused_direction_update(size_t n, const double* Dr, double b
   for (; k < m; ++k) p[k] = Dr[k] + b * p[k];
 }
 
+// Block by block: (B0 B1 B2 B3) and (B4 B5 B6 B7) in two registers; swapping lane 2 between them
+// and exchanging lanes 1 and 3 of each gives (B0 B3 B6 B1) and (B4 B7 B2 B5), the transpose's first
+// eight entries (entry 8 stays where it is). Copies only: every bit as it was.
+PLIANT_AVX2_FMA void transpose_lower_blocks(const double* blocks, const int* upper_blocks, const int* lower_rows,
+                                            const char* fixed, size_t count, double* out) {
+  for (size_t k = 0; k < count; ++k, out += 9) {
+    if (fixed[lower_rows[k]] != 0) {
+      std::fill(out, out + 9, 0.0);
+      continue;
+    }
+    const double* B = blocks + 9 * static_cast<size_t>(upper_blocks[k]);
+    const __m256d lo = _mm256_loadu_pd(B), hi = _mm256_loadu_pd(B + 4);
+    _mm256_storeu_pd(out, _mm256_permute4x64_pd(_mm256_blend_pd(lo, hi, 0x4), 0x6C));      // lanes (0, 3, 2, 1)
+    _mm256_storeu_pd(out + 4, _mm256_permute4x64_pd(_mm256_blend_pd(hi, lo, 0x4), 0x6C));  // lanes (0, 3, 2, 1)
+    out[8] = B[8];
+  }
+  std::fill(out, out + 4, 0.0);
+}
+
 #else
 
 bool fused_sweeps_available() { return false; }
@@ -226,6 +320,8 @@ double fused_cg_update(const FusedSsorSystem&, double, const double*, const doub
 }
 
 void fused_direction_update(size_t, const double*, double, double*) {}
+
+void transpose_lower_blocks(const double*, const int*, const int*, const char*, size_t, double*) {}
 
 #endif
 

@@ -4,7 +4,9 @@
 // arithmetic in one fixed order, ~35 instructions per block visit. Here a block's three columns
 // are one 4-lane load each (the fourth lane is ignored or masked to zero):
 //   gather  a += B t_j   (backward sweep): three FMAs into three accumulators, one per column;
-//   scatter acc_j += B^T y (forward sweep): the column dot products c_k . y by two horizontal adds.
+//   scatter acc_j += B^T y (forward sweep): the column dot products c_k . y by two horizontal adds;
+//   or (session 13, what the solver runs) the forward sweep gathers acc_i = sum_j L_ij s y_j from a
+//   transposed copy of the blocks in lower-triangle rows: three products and adds, the same sums.
 // The sums are the same but rounded differently (FMA keeps the product unrounded, the order of
 // the terms differs), so the solve's iterates differ from the exact path's in the last bits and
 // the CG residual test decides the rest: an approximation under the project's rule (tolerance,
@@ -37,11 +39,27 @@ struct FusedSsorSystem {
   const char* fixed;        ///< nonzero: a fixed (decoupled) row
   double s;                 ///< h (beta + h)
   size_t n;                 ///< rows (vertices)
+  /// Optional (session 13): the transposed upper blocks by row of A's lower triangle, L_ik =
+  /// K'_ji^T for the blocks (j, i), j < i, ascending j (transpose_lower_blocks); with them the
+  /// forward sweep gathers row i's sum from the rows before it instead of scattering row j's into
+  /// the rows after it, the same sums in the same order. nullptr: the scatter.
+  const double* lower_blocks = nullptr;
+  const int* lower_rows = nullptr;     ///< the row j of each lower block
+  const int* lower_offsets = nullptr;  ///< n + 1 offsets: row i's lower blocks [lower_offsets[i], lower_offsets[i + 1])
 };
+
+/// out's block k = K'_ji^T for the upper block upper_blocks[k] = (j, i), j = lower_rows[k]
+/// (column-major 3x3, so its column m is row m of K'_ji), or zero when row j is fixed (a fixed row
+/// sends nothing in the forward sweep). out holds 9 count + 4 doubles: the last four are zeroed
+/// padding, read (never used) by the third column's 4-lane load of the last block. Only where
+/// fused_sweeps_available().
+void transpose_lower_blocks(const double* blocks, const int* upper_blocks, const int* lower_rows, const char* fixed,
+                            size_t count, double* out);
 
 /// One SSOR-PCG iteration's sweeps in Eisenstat's form (corotational_fem.cpp, solve_ssor), vectors
 /// packed xyz per vertex: t = (D + L^T)^-1 p (backward), then q = t + (D + L)^-1 (p - D t)
-/// (forward; acc is n entries of scratch); returns p . q. Only where fused_sweeps_available().
+/// (forward; acc is n entries of scratch: with the lower blocks it holds s y_i of the rows solved);
+/// returns p . q. Only where fused_sweeps_available().
 double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const double* p, double* t, double* q, double* acc);
 
 /// The CG update after the sweeps: dv += a z, r -= a q, Dr = D r; returns r . Dr. Only where

@@ -139,7 +139,9 @@ struct RandomSystem {
     return unit(rng);
   }
 
-  RandomSystem(int cells_x, int cells_yz, unsigned seed) : rng(seed) {
+  // fixed_rows_keep_blocks: fixed rows keep their upper blocks, as CorotationalFem's pattern does
+  // (the mesh's; the sweeps skip the row), so the forward sweep must not send through them.
+  RandomSystem(int cells_x, int cells_yz, unsigned seed, bool fixed_rows_keep_blocks = false) : rng(seed) {
     const TetMeshPtr mesh = make_box_mesh({Vec3(1.0, 0.1, 0.1), cells_x, cells_yz, cells_yz});
     const std::vector<Vec3>& x = mesh->rest_positions();
     n = x.size();
@@ -148,7 +150,7 @@ struct RandomSystem {
     for (size_t i = 0; i < n; ++i) {
       std::vector<int> row{static_cast<int>(i)};
       for (int j : mesh->vertex_neighbors(static_cast<int>(i))) {
-        if (j > static_cast<int>(i) && fixed[i] == 0) row.push_back(j);
+        if (j > static_cast<int>(i) && (fixed[i] == 0 || fixed_rows_keep_blocks)) row.push_back(j);
       }
       std::sort(row.begin() + 1, row.end());
       cols.insert(cols.end(), row.begin(), row.end());
@@ -164,6 +166,35 @@ struct RandomSystem {
 
   FusedSsorSystem system(double s) const {
     return {blocks.data(), cols.data(), offsets.data(), D.data(), D_inverse.data(), fixed.data(), s, n};
+  }
+
+  // The lower pattern (CorotationalFem::build_lower_pattern's construction: the upper blocks by
+  // column, rows ascending) and its transposed blocks.
+  std::vector<int> lower_offsets, lower_rows, upper_of_lower;
+  std::vector<double> lower_blocks;
+
+  FusedSsorSystem gathered_system(double s) {
+    lower_offsets.assign(n + 1, 0);
+    lower_rows.clear();
+    upper_of_lower.clear();
+    std::vector<std::vector<std::pair<int, int>>> by_column(n);
+    for (size_t i = 0; i < n; ++i) {
+      for (auto k = static_cast<size_t>(offsets[i]) + 1; k < static_cast<size_t>(offsets[i + 1]); ++k) {
+        by_column[static_cast<size_t>(cols[k])].emplace_back(static_cast<int>(i), static_cast<int>(k));
+      }
+    }
+    for (size_t i = 0; i < n; ++i) {
+      for (const auto& [row, block] : by_column[i]) lower_rows.push_back(row), upper_of_lower.push_back(block);
+      lower_offsets[i + 1] = static_cast<int>(lower_rows.size());
+    }
+    lower_blocks.assign(9 * lower_rows.size() + 4, std::nan(""));
+    transpose_lower_blocks(blocks.data(), upper_of_lower.data(), lower_rows.data(), fixed.data(), lower_rows.size(),
+                           lower_blocks.data());
+    FusedSsorSystem fs = system(s);
+    fs.lower_blocks = lower_blocks.data();
+    fs.lower_rows = lower_rows.data();
+    fs.lower_offsets = lower_offsets.data();
+    return fs;
   }
 
   std::vector<double> vector() {
@@ -200,6 +231,57 @@ TEST(FusedSsorKernels, SweepsEqualSessionEightsKernelsBitForBit) {
       }
     }
   }
+}
+
+// Session 13: the forward sweep gathering from the transposed lower blocks instead of scattering.
+// t, q and p . q equal to session 8's kernels bit for bit (the accumulator holds s y now, not
+// compared), on patterns whose fixed rows keep their upper blocks (a fixed row must send nothing:
+// its transposed blocks are zero, its s y too) and on the old ones; directions zero at fixed rows,
+// as the solve's are, and not (the sweeps must still agree). The accumulator starts as garbage
+// (the gathered sweep reads only what this sweep wrote). transpose_lower_blocks against the blocks
+// entry by entry. FP traps are on (test_main).
+TEST(FusedSsorKernels, GatheredForwardSweepEqualsSessionEightsScatterBitForBit) {
+  if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  struct Shape {
+    int cells_x, cells_yz;
+    bool keep;
+  };
+  int checked = 0;
+  for (const Shape shape : {Shape{75, 4, true}, Shape{5, 2, true}, Shape{3, 1, false}, Shape{5, 2, false}}) {
+    for (unsigned seed = 1; seed <= 6; ++seed) {
+      RandomSystem sys(shape.cells_x, shape.cells_yz, 100 + seed, shape.keep);
+      const double s = seed % 2 == 0 ? 1e-4 : 0.37;
+      const FusedSsorSystem fs = sys.gathered_system(s);
+      for (size_t k = 0; k < sys.lower_rows.size(); ++k) {
+        const double* L = &sys.lower_blocks[9 * k];
+        const double* B = &sys.blocks[9 * static_cast<size_t>(sys.upper_of_lower[k])];
+        const bool from_fixed = sys.fixed[static_cast<size_t>(sys.lower_rows[k])] != 0;
+        for (int r = 0; r < 3; ++r) {
+          for (int c = 0; c < 3; ++c) {
+            const double expected = from_fixed ? 0.0 : B[c + 3 * r];  // L_rc = B_cr
+            ASSERT_EQ(std::memcmp(&L[r + 3 * c], &expected, sizeof(double)), 0) << k << " " << r << " " << c;
+          }
+        }
+      }
+      for (int k = 0; k < 3; ++k) {
+        std::vector<double> p = sys.vector();
+        if (k != 2) {
+          for (size_t i = 0; i < sys.n; ++i) {
+            if (sys.fixed[i] != 0) p[3 * i] = p[3 * i + 1] = p[3 * i + 2] = 0.0;
+          }
+        }
+        std::vector<double> t(3 * sys.n), q(3 * sys.n), acc = sys.vector();
+        std::vector<double> t_ref(3 * sys.n), q_ref(3 * sys.n), acc_ref = sys.vector();
+        const double pq = fused_eisenstat_sweeps(fs, p.data(), t.data(), q.data(), acc.data());
+        const double pq_ref = reference_sweeps(fs, p.data(), t_ref.data(), q_ref.data(), acc_ref.data());
+        EXPECT_TRUE(same_bits(t, t_ref)) << shape.cells_x << " seed " << seed << " k " << k;
+        EXPECT_TRUE(same_bits(q, q_ref)) << shape.cells_x << " seed " << seed << " k " << k;
+        EXPECT_EQ(std::memcmp(&pq, &pq_ref, sizeof(double)), 0) << pq << " vs " << pq_ref;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 72);
 }
 
 // The first transform's and the true residual's scatter (fused_scatter_row, the same scatter) row by
