@@ -40,6 +40,9 @@
 //   the per-vertex sums -V P g_j with query_stress_kernels.h, and the K' products with
 //   stiffness_product_kernels.h; each is the scalar code's bits per tet, vertex and row, so the
 //   forces are unchanged bit for bit (set_vector_kernels(false): the code before).
+// - Session 13: whole in-slot batches take R from the extraction's lanes
+//   (extract_rotation_matrices_batch_avx2, q normalised and R built there, the same bits), so the
+//   stress kernel does not rebuild R from q per tet.
 #include <algorithm>
 #include <cstring>
 
