@@ -40,6 +40,9 @@
 //   the per-vertex sums -V P g_j with query_stress_kernels.h, and the K' products with
 //   stiffness_product_kernels.h; each is the scalar code's bits per tet, vertex and row, so the
 //   forces are unchanged bit for bit (set_vector_kernels(false): the code before).
+// - Session 13: whole in-slot batches take R from the extraction's lanes
+//   (extract_rotation_matrices_batch_avx2, q normalised and R built there, the same bits), so the
+//   stress kernel does not rebuild R from q per tet.
 #include <algorithm>
 #include <cstring>
 
@@ -197,9 +200,11 @@ void CorotationalFem::exact_query_stresses_batched() {
       // the F is remembered. The same operations on the same bits as the copying loop below.
       Mat3* slots = query_forces_.data() + i;
       for (size_t l = 0; l < L; ++l) q[l] = rotations_[static_cast<size_t>(query_pending_[i + l])];
-      extract_rotations_batch_avx2(slots, q, kElementRotationIterations, kElementRotationTolerance);
+      // Session 13: the extraction hands over R (normalised and built in its lanes, the same bits
+      // as q's toRotationMatrix), so the stress kernel does not rebuild it per tet.
+      extract_rotation_matrices_batch_avx2(slots, q, R, kElementRotationIterations, kElementRotationTolerance);
       for (size_t l = 0; l < L; ++l) nearby_key_[static_cast<size_t>(query_pending_[i + l])] = slots[l];
-      first_piola_stresses_avx2(q, slots, mu_, lambda_, L, R, slots);
+      first_piola_stresses_from_rotations_avx2(R, slots, mu_, lambda_, L, slots);
       for (size_t l = 0; l < L; ++l) {
         const auto t = static_cast<size_t>(query_pending_[i + l]);
         nearby_rotation_[t] = R[l];

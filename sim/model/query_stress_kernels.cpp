@@ -19,28 +19,43 @@ PLIANT_AVX2_ONLY inline __m256d matrix_column(const double* m, int k) {
 
 }  // namespace
 
+namespace {
+
+/// P = (2 mu) (F - R) + (lambda tr) R of one tet, tr = sum of R .* F - 3, into out (first_piola's
+/// scalar expressions: Eigen's SSE2 code, no __AVX__ here, no contraction).
+PLIANT_AVX2_ONLY inline void first_piola_stress(const Mat3& R, const Mat3& F, __m256d two_mu, double lambda,
+                                                Mat3& out) {
+  const double trace = R.cwiseProduct(F).sum() - 3.0;
+  const __m256d lambda_trace = _mm256_set1_pd(lambda * trace);
+  const double* f = F.data();
+  const double* r = R.data();
+  __m256d p[3];
+  for (int k = 0; k < 3; ++k) {
+    const __m256d rk = matrix_column(r, k);
+    p[k] = _mm256_add_pd(_mm256_mul_pd(two_mu, _mm256_sub_pd(matrix_column(f, k), rk)), _mm256_mul_pd(lambda_trace, rk));
+  }
+  double* o = out.data();  // columns 0 and 1 stored whole (lane 3 overwritten next), then 2
+  _mm256_storeu_pd(o, p[0]);
+  _mm256_storeu_pd(o + 3, p[1]);
+  _mm_storeu_pd(o + 6, _mm256_castpd256_pd128(p[2]));
+  o[8] = _mm_cvtsd_f64(_mm256_extractf128_pd(p[2], 1));
+}
+
+}  // namespace
+
 PLIANT_AVX2_ONLY void first_piola_stresses_avx2(const Quat* q, const Mat3* F, double mu, double lambda, size_t count,
                                                 Mat3* R, Mat3* P) {
   const __m256d two_mu = _mm256_set1_pd(2.0 * mu);
   for (size_t l = 0; l < count; ++l) {
-    // first_piola's scalar expressions (Eigen's SSE2 code: no __AVX__ here, no contraction)
     R[l] = q[l].toRotationMatrix();
-    const double trace = R[l].cwiseProduct(F[l]).sum() - 3.0;
-    const __m256d lambda_trace = _mm256_set1_pd(lambda * trace);
-    const double* f = F[l].data();
-    const double* r = R[l].data();
-    __m256d p[3];
-    for (int k = 0; k < 3; ++k) {
-      const __m256d rk = matrix_column(r, k);
-      p[k] = _mm256_add_pd(_mm256_mul_pd(two_mu, _mm256_sub_pd(matrix_column(f, k), rk)),
-                           _mm256_mul_pd(lambda_trace, rk));
-    }
-    double* out = P[l].data();  // columns 0 and 1 stored whole (lane 3 overwritten next), then 2
-    _mm256_storeu_pd(out, p[0]);
-    _mm256_storeu_pd(out + 3, p[1]);
-    _mm_storeu_pd(out + 6, _mm256_castpd256_pd128(p[2]));
-    out[8] = _mm_cvtsd_f64(_mm256_extractf128_pd(p[2], 1));
+    first_piola_stress(R[l], F[l], two_mu, lambda, P[l]);
   }
+}
+
+PLIANT_AVX2_ONLY void first_piola_stresses_from_rotations_avx2(const Mat3* R, const Mat3* F, double mu, double lambda,
+                                                               size_t count, Mat3* P) {
+  const __m256d two_mu = _mm256_set1_pd(2.0 * mu);
+  for (size_t l = 0; l < count; ++l) first_piola_stress(R[l], F[l], two_mu, lambda, P[l]);
 }
 
 PLIANT_AVX2_ONLY void corner_stress_sum_avx2(const int* corner_tets, size_t corner_stride, const Vec3* corner_gradients,
@@ -65,6 +80,8 @@ PLIANT_AVX2_ONLY void corner_stress_sum_avx2(const int* corner_tets, size_t corn
 bool query_stress_kernels_available() { return false; }
 
 void first_piola_stresses_avx2(const Quat*, const Mat3*, double, double, size_t, Mat3*, Mat3*) {}
+
+void first_piola_stresses_from_rotations_avx2(const Mat3*, const Mat3*, double, double, size_t, Mat3*) {}
 
 void corner_stress_sum_avx2(const int*, size_t, const Vec3*, size_t, const int*, const Mat3*, const double*, double*) {}
 

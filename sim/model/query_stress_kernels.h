@@ -29,6 +29,11 @@ bool query_stress_kernels_available();
 void first_piola_stresses_avx2(const Quat* q, const Mat3* F, double mu, double lambda, size_t count, Mat3* R,
                                Mat3* P);
 
+/// first_piola_stresses_avx2 with R[l] given (the rotation matrices of
+/// extract_rotation_matrices_batch_avx2): P[l] may be F[l] (each tet's F is read whole first).
+void first_piola_stresses_from_rotations_avx2(const Mat3* R, const Mat3* F, double mu, double lambda, size_t count,
+                                              Mat3* P);
+
 /// f = -sum over `count` corners c, in order, of V_t (P_s g_c): t = corner_tets[c * corner_stride], s =
 /// tet_slots[t], P_s = slot_stresses[s] (Pa), V_t = volumes[t] (m^3), g_c = corner_gradients[c] (1/m);
 /// f (N, xyz) is CorotationalFem::sum_query_stresses's sum for one vertex bit for bit.

@@ -156,11 +156,12 @@ inline bool any(const Mask& m) {
 }  // namespace rotation_batch_detail
 
 /// extract_rotation for L tets at once (F[l], warm starts q[l]), bit for bit the scalar's result
-/// per lane; iterations[l] (optional) receives each lane's count. L = 4 wants AVX registers (see
+/// per lane; iterations[l] (optional) receives each lane's count, and rotation_matrices[l] (optional) the rotation
+/// matrix q[l].toRotationMatrix(), bit for bit. L = 4 wants AVX registers (see
 /// extract_rotations_batch_avx2 in sim/model/rotation_batch_avx2.h for the run-time choice).
 template <int L>
 inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
-                                    int* iterations = nullptr) {
+                                    int* iterations = nullptr, Mat3* rotation_matrices = nullptr) {
   using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
   using Mask = typename rotation_batch_detail::LaneTypes<L>::Mask;
   // Gathered through memcpy (element inserts into vector arrays trip GCC's maybe-uninitialized);
@@ -268,6 +269,68 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) G[i][j] = active ? next[i][j] : G[i][j];
     }
+  }
+  if (L == 4 || rotation_matrices != nullptr) {
+    // Session 13: the normalisation in the lanes (the per-lane normalisation was ~23 instructions
+    // per tet), and for the local queries' stress the rotation matrix too (its own
+    // toRotationMatrix per tet was ~30). Eigen's (SSE2) Quaternion::normalize: n = (x^2 + z^2) +
+    // (y^2 + w^2), each coefficient divided by sqrt(n) where n > 0 (sqrt and division are
+    // correctly rounded, so the same bits).
+    const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw);
+    const Mask positive = n > 0.0;
+    Lanes s;  // sqrt(n) where n > 0 (GCC's vector types have no sqrt; 1 elsewhere, unused)
+    gather(s, [&](int l) { return n[l] > 0.0 ? std::sqrt(n[l]) : 1.0; });
+    qx = positive ? qx / s : qx;
+    qy = positive ? qy / s : qy;
+    qz = positive ? qz / s : qz;
+    qw = positive ? qw / s : qw;
+    // q.toRotationMatrix()'s expressions (as for the start above), where asked for.
+    const auto rotation_entries = [&](Lanes (&Rl)[3][3]) {
+      const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
+      const Lanes twx = tx * qw, twy = ty * qw, twz = tz * qw;
+      const Lanes txx = tx * qx, txy = ty * qx, txz = tz * qx;
+      const Lanes tyy = ty * qy, tyz = tz * qy, tzz = tz * qz;
+      Rl[0][0] = 1.0 - (tyy + tzz), Rl[0][1] = txy - twz, Rl[0][2] = txz + twy;
+      Rl[1][0] = txy + twz, Rl[1][1] = 1.0 - (txx + tzz), Rl[1][2] = tyz - twx;
+      Rl[2][0] = txz - twy, Rl[2][1] = tyz + twx, Rl[2][2] = 1.0 - (txx + tyy);
+    };
+    if constexpr (L == 4) {
+      // Out of the lanes by 4x4 transposes: q's coefficients (x, y, z, w) and R's column-major
+      // entries 0-3 and 4-7 are one 32-byte store per tet (lane by lane: ~4x the instructions).
+      using Index = typename rotation_batch_detail::LaneTypes<L>::Mask;
+      const auto transpose_store = [](const Lanes& a, const Lanes& b, const Lanes& c, const Lanes& d, auto out_of_lane) {
+        const Index low = {0, 4, 2, 6}, high = {1, 5, 3, 7}, front = {0, 1, 4, 5}, back = {2, 3, 6, 7};
+        const Lanes t0 = __builtin_shuffle(a, b, low), t1 = __builtin_shuffle(a, b, high);
+        const Lanes t2 = __builtin_shuffle(c, d, low), t3 = __builtin_shuffle(c, d, high);
+        const Lanes r0 = __builtin_shuffle(t0, t2, front), r1 = __builtin_shuffle(t1, t3, front);
+        const Lanes r2 = __builtin_shuffle(t0, t2, back), r3 = __builtin_shuffle(t1, t3, back);
+        std::memcpy(out_of_lane(0), &r0, sizeof(Lanes));  // spelled out: a loop over an array of
+        std::memcpy(out_of_lane(1), &r1, sizeof(Lanes));  // the four went through the stack
+        std::memcpy(out_of_lane(2), &r2, sizeof(Lanes));
+        std::memcpy(out_of_lane(3), &r3, sizeof(Lanes));
+      };
+      transpose_store(qx, qy, qz, qw, [&](int l) { return q[l].coeffs().data(); });
+      if (rotation_matrices != nullptr) {
+        Lanes Rl[3][3];
+        rotation_entries(Rl);
+        transpose_store(Rl[0][0], Rl[1][0], Rl[2][0], Rl[0][1], [&](int l) { return rotation_matrices[l].data(); });
+        transpose_store(Rl[1][1], Rl[2][1], Rl[0][2], Rl[1][2], [&](int l) { return rotation_matrices[l].data() + 4; });
+        double last_entries[L];  // R(2, 2) of each lane, one vector store and four scalar copies
+        std::memcpy(last_entries, &Rl[2][2], sizeof(Lanes));
+        for (int l = 0; l < L; ++l) rotation_matrices[l](2, 2) = last_entries[l];
+      }
+    } else {
+      Lanes Rl[3][3];
+      rotation_entries(Rl);
+      for (int l = 0; l < L; ++l) {
+        q[l] = Quat(qw[l], qx[l], qy[l], qz[l]);
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) rotation_matrices[l](i, j) = Rl[i][j][l];
+        }
+      }
+    }
+    for (int l = 0; l < L && iterations != nullptr; ++l) iterations[l] = static_cast<int>(count[l]);
+    return;
   }
   for (int l = 0; l < L; ++l) {
     q[l] = Quat(qw[l], qx[l], qy[l], qz[l]);

@@ -140,5 +140,41 @@ TEST(RotationExtractionBatch, AvxLanesEqualTheScalarExtractionBitForBit) {
       });
 }
 
+// Session 13: the local queries take R from the extraction's lanes (normalised and built there)
+// instead of q.toRotationMatrix() per tet: q and R must be the scalar extraction's q and its
+// toRotationMatrix() bit for bit, over the same cases and iteration caps as above.
+TEST(RotationExtractionBatch, AvxRotationMatricesEqualTheScalarsBitForBit) {
+  if (!rotation_batch_avx2_available()) GTEST_SKIP() << "no AVX2 on this CPU";
+  constexpr int L = kRotationBatchLanesAvx2;
+  std::mt19937_64 rng(20261122);
+  std::uniform_int_distribution<int> kinds(0, 6);
+  int compared = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    Mat3 F[L], R[L];
+    Quat batch[L], scalar[L];
+    const int uniform = trial % 3 == 0 ? kinds(rng) : -1;
+    for (int l = 0; l < L; ++l) {
+      make_case(rng, uniform >= 0 ? uniform : kinds(rng), F[l], batch[l]);
+      scalar[l] = batch[l];
+    }
+    const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
+    extract_rotation_matrices_batch_avx2(F, batch, R, cap, kElementRotationTolerance);
+    for (int l = 0; l < L; ++l) {
+      extract_rotation(F[l], scalar[l], cap, kElementRotationTolerance);
+      const Mat3 expected = scalar[l].toRotationMatrix();
+#ifdef __FMA__
+      ASSERT_LT((R[l] - expected).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+      ++compared;
+      continue;
+#endif
+      ASSERT_TRUE(same_bits(batch[l], scalar[l])) << "trial " << trial << " lane " << l;
+      ASSERT_EQ(std::memcmp(R[l].data(), expected.data(), 9 * sizeof(double)), 0)
+          << "trial " << trial << " lane " << l << ":\n" << R[l] << "\nvs\n" << expected;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 20000 * L);
+}
+
 }  // namespace
 }  // namespace pliant
