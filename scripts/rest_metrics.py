@@ -14,8 +14,9 @@ by hand with throwaway scripts in sessions 9 and 12 and shipped in session 13:
 
 Input: steps.csv of `pliant run` (columns time, kinetic_energy) or of `pliant experiment`
 (surface/ or penalty/steps.csv: time, kinetic). With --vtu DIR (the run's `--vtu` frames), also each
-body's centre (mean of its vertices) in the first and last frame and whether the last frame is at
-rest (every velocity exactly zero: a sleeping body, or a fully clamped one).
+body's centre (mean of its vertices) in the first and last frame (the largest sideways move: does a
+body slide off; the vertical moves: settling) and how many bodies are at rest in the last frame
+(every velocity exactly zero: asleep, or fully clamped).
 
 Usage:
     scripts/rest_metrics.py RUN/steps.csv [RUN2/steps.csv ...] [--vtu] [--hold 0.1] [--late 0.2]
@@ -158,7 +159,8 @@ def main():
         self_test()
         return 0
     print("run | end s | peak J (t s) | first rest 1% / 5% / 10% (s) | max KE after 1% rest, % peak | "
-          "late max % peak (J)" + (" | bodies at rest at the end | largest centre move (x, y, z) mm" if args.vtu else ""))
+          "late max % peak (J)" + (" | bodies at rest at the end | largest sideways centre move mm (body) | "
+                                       "vertical centre moves mm" if args.vtu else ""))
     for path in args.steps:
         times, ke = read_series(path)
         m = metrics(times, ke, args.hold, args.late)
@@ -168,9 +170,12 @@ def main():
         if args.vtu:
             rows = body_report(os.path.join(os.path.dirname(path), "vtu"))
             resting = sum(1 for r in rows if r[3])
-            moves = [[1000.0 * (r[2][k] - r[1][k]) for k in range(3)] for r in rows]
-            largest = max(moves, key=lambda d: (d[0] ** 2 + d[1] ** 2 + d[2] ** 2)) if moves else [0, 0, 0]
-            line += f" | {resting} of {len(rows)} | ({largest[0]:.1f}, {largest[1]:.1f}, {largest[2]:.1f})"
+            # Sideways (x, y) is sliding; down (z) is the stack settling and sagging.
+            sideways = [1000.0 * ((r[2][0] - r[1][0]) ** 2 + (r[2][1] - r[1][1]) ** 2) ** 0.5 for r in rows]
+            down = [1000.0 * (r[2][2] - r[1][2]) for r in rows]
+            i = max(range(len(rows)), key=lambda k: sideways[k])
+            line += (f" | {resting} of {len(rows)} | {sideways[i]:.1f} ({rows[i][0]}) | "
+                     f"{min(down):.1f} .. {max(down):.1f}")
         print(line)
     return 0
 
