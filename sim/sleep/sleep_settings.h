@@ -64,6 +64,14 @@ struct SleepState {
   Vec3 wake_centre = Vec3::Zero();
   bool has_wake_centre = false;
   bool centre_moved = false;   ///< its centre left the ball around wake_centre in its last step
+  /// Session 13: the kinetic and gravitational energy of the frozen state, computed by the first
+  /// report after the body fell asleep and reused while it sleeps (World::body_energy), with the
+  /// gravity they were computed for; cleared when it wakes. Nothing moves a sleeper (every contact
+  /// response treats it as immovable, Body::is_immovable), so the sums are the same bits each step.
+  bool has_frozen_energy = false;
+  double frozen_kinetic_energy = 0.0;        ///< J
+  double frozen_gravitational_energy = 0.0;  ///< J, relative to the body's initial positions
+  Vec3 frozen_energy_gravity = Vec3::Zero(); ///< m/s^2, the world's gravity when they were computed
 };
 
 }  // namespace pliant

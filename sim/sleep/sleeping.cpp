@@ -83,6 +83,10 @@ void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter
   }
 }
 
+bool nothing_moves(std::span<Body* const> bodies) {
+  return std::all_of(bodies.begin(), bodies.end(), is_resting);
+}
+
 int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
                              std::span<const VertexContact> held) {
   for (Body* b : bodies) {
@@ -118,6 +122,7 @@ void wake_body(Body& body) {
   body.sleep.resting = body.sleep.rest_anchor.size() == body.positions.size();
   body.sleep.rest_time = 0.0;
   body.sleep.has_elastic_energy = false;
+  body.sleep.has_frozen_energy = false;
   body.sleep.centre_moved = false;  // likewise for wake_on_centre_motion: its centre has not moved
 }
 

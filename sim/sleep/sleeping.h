@@ -24,6 +24,11 @@ namespace pliant {
 /// slots.
 void filter_resting_pairs(std::span<Body* const> bodies, CollisionFilter& filter);
 
+/// Whether no body can set another in motion this step: every one is resting in the sense of
+/// filter_resting_pairs (asleep, or kinematic, still and not an instrument), so that filter
+/// disallows every pair and detection has nothing to find.
+bool nothing_moves(std::span<Body* const> bodies);
+
 /// Marks each deformable body an instrument touches this step (SleepState::instrument_contact):
 /// a vertex-in-tet pair in `colliding` between it and an instrument, or a contact in `held` (the
 /// contacts of the last step that still hold a force) between them. Returns the number marked.

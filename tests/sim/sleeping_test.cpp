@@ -597,5 +597,87 @@ TEST(Sleeping, CentreMotionStillWakesTheBlockALandingBlockHits) {
   EXPECT_NEAR(landing.woken_at * kDt, std::sqrt(2 * 0.03 / 9.81), 0.006);
 }
 
+
+// Session 13: a sleeper's kinetic and gravitational energy are computed once and reused while it
+// sleeps (SleepState::has_frozen_energy). Reference: the sums over the block's state written out
+// here (m v^2 / 2 and -m g.(x - x0), x0 its positions when it was added), at every step while it
+// sleeps, after gravity is changed under it, and after it was woken by a landing block and fell
+// asleep again lower down (a cache kept across the wake would report the first sleep's energy).
+struct FrozenEnergy {
+  double kinetic = 0.0, gravitational = 0.0;
+};
+FrozenEnergy energy_by_hand(const Body& b, const std::vector<Vec3>& x0, const Vec3& gravity) {
+  FrozenEnergy e;
+  for (size_t v = 0; v < b.positions.size(); ++v) {
+    e.kinetic += 0.5 * b.masses[v] * b.velocities[v].squaredNorm();
+    e.gravitational -= b.masses[v] * gravity.dot(b.positions[v] - x0[v]);
+  }
+  return e;
+}
+
+TEST(Sleeping, ASleepersReportedEnergiesAreTheSumsOverItsFrozenState) {
+  FloorAndBlock s(sleep_on());
+  const std::vector<Vec3> x0 = s.world.body(s.block).positions;
+  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
+  auto expect_report_is_the_sum = [&](const char* when) {
+    const FrozenEnergy hand = energy_by_hand(s.world.body(s.block), x0, s.world.settings().gravity);
+    const EnergyReport& r = s.world.last_report().body_energy[s.block.index];
+    EXPECT_EQ(r.kinetic, hand.kinetic) << when;
+    EXPECT_EQ(r.gravitational, hand.gravitational) << when;
+    EXPECT_EQ(s.world.last_report().energy.gravitational, hand.gravitational) << when;  // the only deformable body
+  };
+  // (The report of the step it fell asleep in still has the velocities update_sleep then zeroed.)
+  const double first_sleep = s.world.last_report().body_energy[s.block.index].gravitational;
+  for (int i = 0; i < 50; ++i) {
+    s.world.step(kDt);
+    ASSERT_TRUE(s.world.body(s.block).is_sleeping());
+    expect_report_is_the_sum("asleep");
+  }
+  // Gravity changed under a sleeper (it stays asleep: no force of its own): the cache follows.
+  s.world.settings().gravity = Vec3(0.0, 0.0, -4.0);
+  s.world.step(kDt);
+  ASSERT_TRUE(s.world.body(s.block).is_sleeping());
+  expect_report_is_the_sum("after gravity changed");
+  EXPECT_NE(s.world.last_report().body_energy[s.block.index].gravitational, first_sleep);
+  s.world.settings().gravity = Vec3(0.0, 0.0, -9.81);
+  // Woken by a landing block, then asleep again under its weight: a new frozen state.
+  const BodyId top = FloorAndBlock::add_block(s.world, "top", Vec3(0.01, 0, 0.05 + 0.01 + 0.025));
+  const std::vector<Vec3> top_x0 = s.world.body(top).positions;
+  bool woke = false;
+  for (int i = 0; i < 4000 && !(woke && s.world.body(s.block).is_sleeping()); ++i) {
+    s.world.step(kDt);
+    woke = woke || !s.world.body(s.block).is_sleeping();
+  }
+  ASSERT_TRUE(woke && s.world.body(s.block).is_sleeping()) << "the block did not wake and fall asleep again";
+  for (int i = 0; i < 20; ++i) s.world.step(kDt);
+  ASSERT_TRUE(s.world.body(s.block).is_sleeping());
+  const FrozenEnergy hand = energy_by_hand(s.world.body(s.block), x0, s.world.settings().gravity);
+  EXPECT_EQ(s.world.last_report().body_energy[s.block.index].gravitational, hand.gravitational);
+  EXPECT_EQ(s.world.last_report().body_energy[s.block.index].kinetic, 0.0);
+  EXPECT_NE(hand.gravitational, first_sleep);  // it lies lower under the top block
+  const FrozenEnergy top_hand = energy_by_hand(s.world.body(top), top_x0, s.world.settings().gravity);
+  EXPECT_EQ(s.world.last_report().body_energy[top.index].gravitational, top_hand.gravitational);
+}
+
+// Session 13: with every body resting (the block asleep, the floor a still fixture) detection is
+// skipped (nothing_moves). The floor then rising 1 mm into the block's lowest face must be detected
+// and wake it in that very step, as a moving fixture always did.
+TEST(Sleeping, AFixtureRisingIntoAFullyAsleepWorldWakesTheBlockItReaches) {
+  FloorAndBlock s(sleep_on());
+  ASSERT_TRUE(step_until_asleep(s.world, s.block, 3000).has_value());
+  for (int i = 0; i < 10; ++i) {
+    const StepReport& r = s.world.step(kDt);
+    EXPECT_TRUE(nothing_moves(std::vector<Body*>{&s.world.body(s.floor), &s.world.body(s.block)}));
+    EXPECT_EQ(r.colliding_vertices, 0);
+    EXPECT_EQ(r.bodies_woken, 0);
+  }
+  ASSERT_LT(min_z(s.world.body(s.block)), 0.0005);  // resting within 0.5 mm of the floor's top
+  s.world.body(s.floor).target_pose.translation += Vec3(0, 0, 0.001);
+  const StepReport& r = s.world.step(kDt);
+  EXPECT_GT(r.colliding_vertices, 0);
+  EXPECT_EQ(r.bodies_woken, 1);
+  EXPECT_FALSE(s.world.body(s.block).is_sleeping());
+}
+
 }  // namespace
 }  // namespace pliant
