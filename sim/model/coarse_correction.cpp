@@ -148,8 +148,11 @@ bool CoarseSpace::assemble(const BlockSystemView& sys) {
       galerkin_.block<3, 3>(3 * a, 3 * slot_aggregate_[static_cast<size_t>(k)]) += az_[static_cast<size_t>(k)];
     }
   }
-  // Symmetric in exact arithmetic; the two triangles differ by round-off only.
-  galerkin_ = 0.5 * (galerkin_ + galerkin_.transpose()).eval();
+  // Symmetric in exact arithmetic; the two triangles differ by round-off only (in place: no
+  // temporary, no allocation per step).
+  for (int r = 0; r < m; ++r) {
+    for (int c = r + 1; c < m; ++c) galerkin_(r, c) = galerkin_(c, r) = 0.5 * (galerkin_(r, c) + galerkin_(c, r));
+  }
   factor_.compute(galerkin_);
   coarse_.resize(m);
   return factor_.info() == Eigen::Success;
