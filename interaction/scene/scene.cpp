@@ -52,7 +52,7 @@ Material read_material(const JsonReader& j) {
 
 ModelSettings read_model_settings(const JsonReader& j) {
   j.expect_keys({"max_solver_iterations", "solver_tolerance", "distance_stiffness", "volume_stiffness",
-                 "area_stiffness", "distance_damping", "fused_sweeps"});
+                 "area_stiffness", "distance_damping", "fused_sweeps", "coarse_aggregate_size"});
   ModelSettings s;
   if (auto it = j.find("max_solver_iterations")) {
     s.accuracy.max_solver_iterations = it->integer();
@@ -64,6 +64,10 @@ ModelSettings read_model_settings(const JsonReader& j) {
   s.area_stiffness = j.non_negative_number_or("area_stiffness", s.area_stiffness);
   s.distance_damping = j.non_negative_number_or("distance_damping", s.distance_damping);
   s.fused_sweeps = j.boolean_or("fused_sweeps", s.fused_sweeps);
+  if (auto it = j.find("coarse_aggregate_size")) {
+    s.coarse_aggregate_size = it->integer();
+    if (s.coarse_aggregate_size < 0) it->fail(InputErrorKind::bad_value, "expected an integer >= 0 (0: off)");
+  }
   return s;
 }
 

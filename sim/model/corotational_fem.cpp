@@ -73,7 +73,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       accuracy_(settings.accuracy),
       product_(product),
       fused_sweeps_(settings.fused_sweeps && fused_sweeps_available()),
-      vector_kernels_(stiffness_row_kernels_available() && rotation_batch_avx2_available()) {
+      vector_kernels_(stiffness_row_kernels_available() && rotation_batch_avx2_available()),
+      coarse_aggregate_size_(settings.coarse_aggregate_size) {
   const auto& X = mesh_->rest_positions();
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   rest_shape_inverse_.resize(nt);
@@ -923,6 +924,19 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   const SsorSweeps sweeps{blocks_.data()->data(), block_cols_.data(), block_row_offsets_.data(),
                           diagonal_system_blocks_.data(), preconditioner_.data(), fixed.data(),
                           stiffness_scale, n, fused_sweeps_};
+  // Coarse correction (session 13, coarse_correction.h): deflation needs the direction between the
+  // two sweeps, so it runs the exact sweeps' iteration; the start's residual is made orthogonal to Z.
+  bool coarse = false;
+  if (coarse_aggregate_size_ > 0) {
+    if (!coarse_.built_for(fixed, coarse_aggregate_size_)) {
+      coarse_.build_aggregates(mesh_->rest_positions(), fixed, coarse_aggregate_size_);
+    }
+    coarse = coarse_.assemble({sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D, sweeps.fixed, sweeps.s, n});
+  }
+  if (coarse) {
+    coarse_.correct_start(dv_, r_);
+    residual = std::sqrt(dot(r_, r_)) / rhs_norm;
+  }
   // r~ = (D + L)^-1 r; p^ = D r~.
   sweeps.forward([&](size_t i) { return r_[i]; }, [&](size_t i, const Vec3& y) { r_[i] = y; }, kv_.data());
   double rz = 0.0;
@@ -946,7 +960,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     double pq = 0.0, rz_next = 0.0, a = 0.0;
-    if (fused_sweeps_) {  // the same iteration, AVX2/FMA (fused_ssor_kernels.h)
+    if (fused_sweeps_ && !coarse) {  // the same iteration, AVX2/FMA (fused_ssor_kernels.h)
       pq = fused_eisenstat_sweeps(fused, p_.data()->data(), z_.data()->data(), q_.data()->data(), kv_.data()->data());
       if (!(pq > 0.0)) break;
       a = rz / pq;
@@ -954,6 +968,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
                                 r_.data()->data(), rhs_.data()->data());
     } else {
       sweeps.backward(p_.data(), z_.data());  // t
+      if (coarse) coarse_.project_direction(z_, p_);  // t and p^ = (D + L^T) t A-orthogonal to Z
       sweeps.forward([&](size_t i) { return Vec3(p_[i] - diagonal_system_blocks_[i] * z_[i]); },
                      [&](size_t i, const Vec3& y) {
                        q_[i] = z_[i] + y;
@@ -979,7 +994,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     }
     const double b = rz_next / rz;
     rz = rz_next;
-    if (fused_sweeps_) {
+    if (fused_sweeps_ && !coarse) {
       fused_direction_update(n, rhs_.data()->data(), b, p_.data()->data());
     } else {
       for (size_t i = 0; i < n; ++i) p_[i] = rhs_[i] + b * p_[i];

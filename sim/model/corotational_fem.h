@@ -42,6 +42,7 @@
 #include <utility>
 #include <vector>
 
+#include "sim/model/coarse_correction.h"
 #include "sim/model/deformation_model.h"
 
 namespace pliant {
@@ -113,6 +114,13 @@ class CorotationalFem final : public DeformationModel {
   void set_fused_sweeps(bool on);
   /// True when the SSOR sweeps run the AVX2/FMA kernels.
   bool fused_sweeps() const { return fused_sweeps_; }
+  /// The coarse correction of the SSOR-PCG (session 13, coarse_correction.h): deflation by the
+  /// translations of boxes of about `vertices` free vertices, with the exact sweeps; 0: off.
+  void set_coarse_aggregate_size(int vertices) { coarse_aggregate_size_ = vertices; }
+  /// Free vertices per coarse aggregate asked for (0: no coarse correction).
+  int coarse_aggregate_size() const { return coarse_aggregate_size_; }
+  /// Aggregates of the last solve's coarse space (0 if none was used).
+  int coarse_aggregates() const { return coarse_aggregate_size_ > 0 ? coarse_.aggregate_count() : 0; }
   /// The step's fixed part in AVX2 lanes (session 9; on by default where the CPU has AVX2): K' rows
   /// (stiffness_row_kernels.h) and the evaluation pass's rotations four tets at a time
   /// (rotation_batch_avx2.h), and since session 11 the local queries' rotations, F, P, sums and K'
@@ -282,6 +290,8 @@ class CorotationalFem final : public DeformationModel {
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
   bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: ModelSettings::fused_sweeps where available)
   bool vector_kernels_ = false;  ///< set_vector_kernels (the constructor: on where available)
+  int coarse_aggregate_size_ = 0;  ///< set_coarse_aggregate_size (the constructor: ModelSettings)
+  CoarseSpace coarse_;             ///< aggregates and deflation operators of the coarse correction
 
   // Local queries (sim/model/corotational_local_query.cpp): each tet around the asked vertices is
   // evaluated once per query, into a slot; buffers sized on first use and kept.

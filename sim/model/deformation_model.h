@@ -39,6 +39,10 @@ struct ModelSettings {
   /// Corotational FEM: the SSOR-PCG iteration in the AVX2/FMA kernels where the CPU has them (the
   /// default since session 8); false: the exact sweeps, bit for bit the solve before session 8.
   bool fused_sweeps = true;
+  /// Corotational FEM: the coarse (two-level) correction of the SSOR-PCG, deflation by the rigid
+  /// translations of boxes of about this many free vertices (sim/model/coarse_correction.h; runs
+  /// the exact sweeps). 0: off, the solve before session 13 bit for bit.
+  int coarse_aggregate_size = 0;
 };
 
 /// What one step of a model did.

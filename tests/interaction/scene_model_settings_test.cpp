@@ -1,4 +1,4 @@
-// The body's "model_settings" object reads fused_sweeps (docs/scene-format.md): the boolean reaches
+// The body's "model_settings" object reads fused_sweeps and coarse_aggregate_size (docs/scene-format.md): the boolean reaches
 // the corotational FEM's SSOR sweeps (the AVX2/FMA kernels where the CPU has them, or the exact
 // sweeps), and a value of the wrong type is an error naming its JSON path.
 #include <gtest/gtest.h>
@@ -61,6 +61,40 @@ TEST(SceneFormat, ModelSettingsFusedSweepsReachesTheModel) {
       ADD_FAILURE() << "no error for " << bad;
     } catch (const InputError& e) {
       const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/fused_sweeps";
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+}
+
+// "coarse_aggregate_size" (session 13): default 0 (no coarse correction), an integer reaches the
+// model, and a negative or non-integer value names its JSON path.
+TEST(SceneFormat, ModelSettingsCoarseAggregateSizeReachesTheModel) {
+  nlohmann::json j = probe_coarse_json();
+  size_t tissue = 0;
+  while (tissue < j["bodies"].size() && j["bodies"][tissue].value("kinematic", false)) ++tissue;
+  ASSERT_LT(tissue, j["bodies"].size());
+  const Scene default_scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_EQ(default_scene.bodies[tissue].model_settings.coarse_aggregate_size, 0);
+  const SceneInstance default_instance = instantiate_scene(default_scene);
+  const CorotationalFem* fem = first_fem(default_instance);
+  ASSERT_NE(fem, nullptr);
+  EXPECT_EQ(fem->coarse_aggregate_size(), 0);
+
+  j["bodies"][tissue]["model_settings"]["coarse_aggregate_size"] = 56;
+  const Scene coarse_scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_EQ(coarse_scene.bodies[tissue].model_settings.coarse_aggregate_size, 56);
+  const SceneInstance coarse_instance = instantiate_scene(coarse_scene);
+  fem = first_fem(coarse_instance);
+  ASSERT_NE(fem, nullptr);
+  EXPECT_EQ(fem->coarse_aggregate_size(), 56);
+
+  for (const nlohmann::json& bad : {nlohmann::json(-1), nlohmann::json(2.5), nlohmann::json("56")}) {
+    j["bodies"][tissue]["model_settings"]["coarse_aggregate_size"] = bad;
+    try {
+      parse_scene(j, "probe_coarse.json", ".");
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const InputError& e) {
+      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/coarse_aggregate_size";
       EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     }
   }
