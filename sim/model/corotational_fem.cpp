@@ -948,7 +948,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   double scale = rz > 0.0 ? residual / std::sqrt(rz) : 0.0;
   const double tolerance = accuracy_.solver_tolerance;
   int it = 0;
-  if (fused_sweeps_) {  // the forward sweep gathers from the transposed blocks (session 13, the same bits)
+  if (fused_sweeps_ && !coarse) {  // the forward sweep gathers from the transposed blocks (session 13, the same bits)
     build_lower_pattern();
     lower_transposed_.resize(9 * lower_blocks_.size() + 4);
     transpose_lower_blocks(sweeps.blocks, lower_blocks_.data(), lower_rows_.data(), sweeps.fixed,
