@@ -7,6 +7,7 @@
 
 #include "sim/collision/contact_triangle.h"
 #include "sim/collision/tet_walk.h"
+#include "sim/collision/vertex_normal_scratch_inl.h"
 
 namespace pliant {
 

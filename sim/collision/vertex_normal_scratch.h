@@ -1,15 +1,18 @@
-// Smoothed vertex normals of the surface vertices one depth group reaches, in a compact scratch.
+// Smoothed vertex normals of the surface vertices one depth group reaches, in a small scratch.
 //
 // Design note. Stage 2 interpolates vertex normals at the few surface points its edges hit
-// (Heidelberger 2004, section 4.2). Kept in per-vertex arrays of every penetrated surface (as up to
+// (Heidelberger 2004, section 4.2). Kept in per-vertex arrays of every penetrated surface (up to
 // session 12), each first use in a pose wrote a 24-byte normal and an 8-byte epoch, plus a face
 // cross product and its epoch per incident triangle, into arrays of the whole surface: at 100k tets
-// (260 bodies, ~10 MB of such arrays) nearly every one of those writes was an L2 write-allocate miss
-// (docs/penetration-depth.md, session 12 profile). Here a generation (one depth group) keeps only
-// the vertices and triangles it reaches, in first-reached order, behind two small open-addressing
-// tables whose entries carry the generation's stamp (a new generation forgets everything in O(1),
-// no clearing). The values are computed by the same expressions in the same order as
-// TetMesh::vertex_normals: bit for bit the same normals.
+// (260 bodies) nearly every such write was an L2 write-allocate miss (docs/penetration-depth.md,
+// session 12's profile). Here one generation (a depth group: one penetrated surface at one pose)
+// keeps normals and face cross products in two small direct-mapped tables (slot = index modulo the
+// table size), each entry tagged with its generation and index: a new generation forgets everything
+// in O(1), and a lookup is a mask, a load and a compare. Two indices of one group that share a slot
+// evict each other and are recomputed: the same expressions from the same positions, so the
+// normals are bit for bit TetMesh::vertex_normals' whatever the table size (session 13 tried an
+// open-addressing map of exactly the reached indices first: the same misses saved, twice the
+// instructions of the normals).
 #pragma once
 
 #include <cstdint>
@@ -21,59 +24,35 @@
 
 namespace pliant {
 
-/// Key -> dense slot map for one generation: open addressing, linear probing, stamped entries.
-class StampedSlotTable {
- public:
-  /// Forgets every key (O(1): the stamp advances; the table is cleared only when it wraps).
-  void new_generation();
-  /// The slot of `key` (>= 0), or, if absent, assigns it the next slot (size()) and returns
-  /// -1 - that slot (so the caller knows to fill it).
-  int find_or_insert(int key);
-  /// Keys of this generation.
-  int size() const { return size_; }
-
- private:
-  struct Entry {
-    std::uint32_t stamp = 0;  ///< generation that wrote the entry (0: never)
-    std::int32_t key = 0;
-    std::int32_t slot = 0;
-  };
-  /// Doubles the table and re-inserts this generation's keys (kept in keys_, slot order).
-  void grow();
-  std::size_t home(int key) const {
-    return static_cast<std::size_t>((static_cast<std::uint32_t>(key) * 2654435769u) >> shift_);
-  }
-
-  std::vector<Entry> table_;
-  std::vector<int> keys_;     ///< per slot: its key (for growing)
-  std::uint32_t stamp_ = 0;
-  int size_ = 0;
-  int shift_ = 32;            ///< 32 - log2(table size)
-};
-
 /// Area-weighted vertex normals (TetMesh::vertex_normals, bit for bit) of one surface at one pose,
-/// computed on first use and kept until the next begin().
+/// computed on first use and kept (while their slot is not taken) until the next begin().
 class VertexNormalScratch {
  public:
   /// Starts a generation for `mesh` at positions `x` (both must outlive the generation).
   void begin(const TetMesh& mesh, std::span<const Vec3> x);
-  /// The unit area-weighted normal of surface vertex v (zero for a vertex without surface triangles).
-  const Vec3& normal(int v) {
-    const int s = vertices_.find_or_insert(v);
-    return s >= 0 ? normals_[static_cast<std::size_t>(s)] : compute_normal(v, -1 - s);
-  }
+  /// The unit area-weighted normal of surface vertex v (zero for a vertex without surface
+  /// triangles); valid until the next call. Inline in vertex_normal_scratch_inl.h (the hot path).
+  const Vec3& normal(int v);
 
  private:
-  /// Computes vertex v's normal into slot s.
-  const Vec3& compute_normal(int v, int s);
-  /// (b - a) x (c - a) of surface triangle t, twice its area normal (once per generation).
+  /// A table entry: a value and whose it is.
+  struct Entry {
+    std::uint64_t tag = 0;  ///< generation << 32 | index (generation 0: never written)
+    Vec3 value;
+  };
+  static constexpr std::size_t kNormalSlots = 256;  ///< a 4-cell block body has 125 vertices
+  static constexpr std::size_t kCrossSlots = 512;   ///< ... and 192 surface triangles
+  std::uint64_t tag(int index) const { return generation_ | static_cast<std::uint32_t>(index); }
+  /// Computes vertex v's normal into `e`.
+  const Vec3& compute_normal(int v, Entry& e);
+  /// (b - a) x (c - a) of surface triangle t, twice its area normal (once per generation and slot).
   const Vec3& face_cross(int t);
 
   const TetMesh* mesh_ = nullptr;
   std::span<const Vec3> x_;
-  StampedSlotTable vertices_, triangles_;
-  std::vector<Vec3> normals_;   ///< per vertex slot, first-reached order
-  std::vector<Vec3> crosses_;   ///< per triangle slot, first-reached order
+  std::vector<Entry> normals_;   ///< kNormalSlots entries, vertex v in slot v mod kNormalSlots
+  std::vector<Entry> crosses_;   ///< kCrossSlots entries, triangle t in slot t mod kCrossSlots
+  std::uint64_t generation_ = 0; ///< this generation's number << 32
 };
 
 }  // namespace pliant
