@@ -7,6 +7,7 @@
 
 #include "sim/collision/contact_triangle.h"
 #include "sim/collision/tet_walk.h"
+#include "sim/collision/vertex_normal_scratch_inl.h"
 
 namespace pliant {
 
@@ -17,15 +18,7 @@ PenetrationDepthSolver::Surface& PenetrationDepthSolver::surface_of(std::span<co
     const CollisionBody& cb = bodies[static_cast<size_t>(body)];
     s.mesh = cb.mesh;
     s.x = cb.positions;
-    // Vertex normals only where a hit needs them (vertex_normal), not for the whole surface.
-    s.vertex_normals.resize(static_cast<size_t>(cb.mesh->vertex_count()));
-    s.normal_epoch.resize(static_cast<size_t>(cb.mesh->vertex_count()), 0);
-    s.face_cross.resize(static_cast<size_t>(cb.mesh->surface_triangle_count()));
-    s.face_epoch.resize(static_cast<size_t>(cb.mesh->surface_triangle_count()), 0);
     s.built_in_call = call_;
-    // Walk mode does not measure the surface's motion (no refit unless a query needs the BVH):
-    // normals are keyed on the call (top bit set: never equal to a hierarchy's pose epoch).
-    if (options_.surface_query == SurfaceQueryMethod::tet_walk) s.pose_key = call_ | (std::uint64_t{1} << 63);
     // With edges walked, the walks' face normals are reused within this call (a border point's
     // edges and ray start in one tet; the positions change between calls). Rays alone rarely enter
     // a tet twice: there the cache cost more than it saved, so they walk without it.
@@ -54,7 +47,6 @@ void PenetrationDepthSolver::ensure_bvh(Surface& s) {
     }
   }
   s.bvh_in_call = call_;
-  if (options_.surface_query != SurfaceQueryMethod::tet_walk) s.pose_key = s.bvh.pose_epoch();
 }
 
 void PenetrationDepthSolver::walk_fan(Surface& surface, const VertexInTet& c, const Vec3& p) {
@@ -106,43 +98,13 @@ void PenetrationDepthSolver::walk_fan(Surface& surface, const VertexInTet& c, co
   }
 }
 
-const Vec3& PenetrationDepthSolver::face_cross(Surface& surface, int triangle) {
-  Vec3& c = surface.face_cross[static_cast<size_t>(triangle)];
-  if (surface.face_epoch[static_cast<size_t>(triangle)] != surface.pose_key) {
-    const auto& tri = surface.mesh->surface_triangles()[static_cast<size_t>(triangle)];
-    const std::span<const Vec3> x = surface.x;
-    const Vec3& a = x[static_cast<size_t>(tri[0])];
-    c = (x[static_cast<size_t>(tri[1])] - a).cross(x[static_cast<size_t>(tri[2])] - a);
-    surface.face_epoch[static_cast<size_t>(triangle)] = surface.pose_key;
-  }
-  return c;
-}
-
-void PenetrationDepthSolver::compute_vertex_normal(Surface& surface, int v) {
-  // TetMesh::vertex_normals for one vertex, bit for bit: the area-weighted face normals summed in
-  // ascending triangle order (vertex_surface_triangles is sorted), then normalised. Each face's
-  // cross product is computed once per pose and shared by its three corners (same values).
-  Vec3& n = surface.vertex_normals[static_cast<size_t>(v)];
-  n.setZero();
-  for (int t : surface.mesh->vertex_surface_triangles(v)) n += face_cross(surface, t);
-  const double len = n.norm();
-  if (len > 0.0) n /= len;
-  surface.normal_epoch[static_cast<size_t>(v)] = surface.pose_key;
-}
-
-// The common case (normal already computed in this pose) inline in smoothed_normal.
-inline const Vec3& PenetrationDepthSolver::vertex_normal(Surface& surface, int v) {
-  if (surface.normal_epoch[static_cast<size_t>(v)] != surface.pose_key) compute_vertex_normal(surface, v);
-  return surface.vertex_normals[static_cast<size_t>(v)];
-}
-
-Vec3 PenetrationDepthSolver::smoothed_normal(Surface& surface, const SurfacePoint& hit) {
+Vec3 PenetrationDepthSolver::smoothed_normal(const Surface& surface, const SurfacePoint& hit) {
   // Heidelberger 2004, section 4.2: barycentric interpolation of the hit face's vertex normals.
   const TetMesh& mesh = *surface.mesh;
   const auto& tri = mesh.surface_triangles()[static_cast<size_t>(hit.triangle)];
   Vec3 n = Vec3::Zero();
   for (int k = 0; k < 3; ++k) {
-    n += hit.barycentric[k] * vertex_normal(surface, tri[static_cast<size_t>(k)]);
+    n += hit.barycentric[k] * normals_.normal(tri[static_cast<size_t>(k)]);
   }
   const double len = n.norm();
   if (len > 1e-12) return n / len;
@@ -204,6 +166,8 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
   const bool walk = options_.surface_query != SurfaceQueryMethod::bvh && !self;          // contact rays
   const bool walk_edges = options_.surface_query == SurfaceQueryMethod::tet_walk && !self;
   Surface& surface = surface_of(bodies, first.penetrated_body, !walk_edges);
+  // Vertex normals only where a hit needs them, in a scratch of this group's reached vertices.
+  normals_.begin(*surface.mesh, surface.x);
   const int count = static_cast<int>(group.size());
   // Weights 1/|.|^2 are capped where two points (nearly) coincide.
   const double min_distance_squared = std::pow(1e-9 * std::max(mesh.mean_edge_length(), 1e-300), 2);

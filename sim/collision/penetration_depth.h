@@ -14,7 +14,8 @@
 // triangle is the first surface triangle hit by the ray x + t r, t >= 0; if the direction vanished
 // or the ray misses, the nearest surface triangle; its search is bounded by the ray's parameter on
 // the triangle of the point's nearest edge hit (a hint: same answer, fewer nodes). Vertex normals
-// are computed on demand per step. Scratch buffers are members and only grow.
+// are computed on demand per group into a compact scratch (VertexNormalScratch). Scratch buffers
+// are members and only grow.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +25,7 @@
 #include "sim/collision/contact_types.h"
 #include "sim/collision/surface_bvh.h"
 #include "sim/collision/tet_walk.h"
+#include "sim/collision/vertex_normal_scratch.h"
 
 namespace pliant {
 
@@ -94,17 +96,12 @@ class PenetrationDepthSolver {
   const PenetrationDepthStats& stats() const { return stats_; }
 
  private:
-  /// The penetrated body's surface at this step: hierarchy and smoothed vertex normals.
+  /// The penetrated body's surface at this step: its hierarchy.
   struct Surface {
     const TetMesh* mesh = nullptr;    ///< the penetrated body's mesh and positions at this call
     std::span<const Vec3> x;
-    std::uint64_t pose_key = 0;       ///< normals and face cross products are valid for this key
     std::uint64_t bvh_in_call = 0;    ///< call counter value when bvh was last brought to x
     SurfaceBvh bvh;
-    std::vector<Vec3> vertex_normals;         ///< valid where normal_epoch equals bvh.pose_epoch()
-    std::vector<std::uint64_t> normal_epoch;  ///< per vertex: bvh.pose_epoch() of its normal
-    std::vector<Vec3> face_cross;             ///< per surface triangle: (b - a) x (c - a), twice its area normal
-    std::vector<std::uint64_t> face_epoch;    ///< per surface triangle: bvh.pose_epoch() of face_cross
     std::uint64_t built_in_call = 0;  ///< call counter value when last brought to this call's positions
     int refits = 0;                   ///< full refits since the last build
     TetFacePlanes planes;             ///< tet_walk: face normals of the tets walked in this call
@@ -118,17 +115,15 @@ class PenetrationDepthSolver {
   void walk_fan(Surface& surface, const VertexInTet& c, const Vec3& p);
   void solve_group(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
                    std::span<const int> group);
-  Vec3 smoothed_normal(Surface& surface, const SurfacePoint& hit);
-  const Vec3& vertex_normal(Surface& surface, int v);
-  /// Computes vertex v's smoothed normal at this pose into surface.vertex_normals.
-  void compute_vertex_normal(Surface& surface, int v);
-  /// (b - a) x (c - a) of a surface triangle at the current pose (computed once per pose).
-  const Vec3& face_cross(Surface& surface, int triangle);
+  /// Interpolated vertex normal at a hit of the group's penetrated surface (normals_ holds its
+  /// vertex normals).
+  Vec3 smoothed_normal(const Surface& surface, const SurfacePoint& hit);
 
   PenetrationDepthOptions options_;
   PenetrationDepthStats stats_;
   std::uint64_t call_ = 0;
   std::vector<Surface> surfaces_;             ///< per body index
+  VertexNormalScratch normals_;               ///< vertex normals of the group's penetrated surface
   std::vector<int> order_;                    ///< colliding entries sorted by group
   std::vector<VertexContact> results_;        ///< per colliding entry
   std::vector<char> has_result_;              ///< per colliding entry: a contact triangle exists
