@@ -167,6 +167,23 @@ void BM_StiffnessProduct(benchmark::State& state) {
 }
 BENCHMARK(BM_StiffnessProduct)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
+// Times one advance of `model` from the beam's settled state, restored (untimed) before every
+// iteration; returns the last iteration's result.
+IntegrationResult time_advance_from_settled(benchmark::State& state, Beam& beam, CorotationalFem& model) {
+  const CorotationalFem snapshot = model;
+  const std::vector<Vec3> x0 = beam.x, v0 = beam.v;
+  IntegrationResult result;
+  for (auto _ : state) {
+    state.PauseTiming();
+    model = snapshot;
+    std::copy(x0.begin(), x0.end(), beam.x.begin());
+    std::copy(v0.begin(), v0.end(), beam.v.begin());
+    state.ResumeTiming();
+    result = model.advance(beam.x, beam.v, beam.input());
+  }
+  return result;
+}
+
 // A full implicit step (rotations, forces, [assembly], preconditioner, 20 CG iterations, update),
 // always the same step: model and state are restored from a snapshot outside the timing.
 // Arg 0: matrix-free K' (block-Jacobi); 1: assembled K' with the default preconditioner (SSOR,
@@ -197,17 +214,7 @@ void BM_CorotationalImplicitStep(benchmark::State& state) {
     accuracy.max_solver_iterations = 0;
     model.set_accuracy(accuracy);
   }
-  const CorotationalFem snapshot = model;
-  const std::vector<Vec3> x0 = beam.x, v0 = beam.v;
-  IntegrationResult result;
-  for (auto _ : state) {
-    state.PauseTiming();
-    model = snapshot;
-    std::copy(x0.begin(), x0.end(), beam.x.begin());
-    std::copy(v0.begin(), v0.end(), beam.v.begin());
-    state.ResumeTiming();
-    result = model.advance(beam.x, beam.v, beam.input());
-  }
+  const IntegrationResult result = time_advance_from_settled(state, beam, model);
   per_tet(state, beam);
   state.counters["cg_iterations"] = result.solver_iterations;
   state.counters["residual"] = result.solver_residual;
@@ -331,17 +338,7 @@ void BM_CorotationalImplicitStepToResidual(benchmark::State& state) {
   CorotationalFem model(beam.mesh, beam.material, settings);
   if (arg >= 2) model.set_preconditioner(Preconditioner::block_jacobi);
   beam.settle(model);
-  const CorotationalFem snapshot = model;
-  const std::vector<Vec3> x0 = beam.x, v0 = beam.v;
-  IntegrationResult result;
-  for (auto _ : state) {
-    state.PauseTiming();
-    model = snapshot;
-    std::copy(x0.begin(), x0.end(), beam.x.begin());
-    std::copy(v0.begin(), v0.end(), beam.v.begin());
-    state.ResumeTiming();
-    result = model.advance(beam.x, beam.v, beam.input());
-  }
+  const IntegrationResult result = time_advance_from_settled(state, beam, model);
   state.counters["cg_iterations"] = result.solver_iterations;
   state.counters["residual"] = result.solver_residual;
   state.counters["rows_summed"] = static_cast<double>(model.reassembled_rows());
@@ -360,17 +357,7 @@ void BM_CorotationalImplicitStepToResidualCoarse(benchmark::State& state) {
   settings.coarse_aggregate_size = static_cast<int>(state.range(0));
   CorotationalFem model(beam.mesh, beam.material, settings);
   beam.settle(model);
-  const CorotationalFem snapshot = model;
-  const std::vector<Vec3> x0 = beam.x, v0 = beam.v;
-  IntegrationResult result;
-  for (auto _ : state) {
-    state.PauseTiming();
-    model = snapshot;
-    std::copy(x0.begin(), x0.end(), beam.x.begin());
-    std::copy(v0.begin(), v0.end(), beam.v.begin());
-    state.ResumeTiming();
-    result = model.advance(beam.x, beam.v, beam.input());
-  }
+  const IntegrationResult result = time_advance_from_settled(state, beam, model);
   state.counters["cg_iterations"] = result.solver_iterations;
   state.counters["residual"] = result.solver_residual;
   state.counters["aggregates"] = model.coarse_aggregates();
