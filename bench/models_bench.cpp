@@ -276,25 +276,16 @@ void BM_SsorIteration(benchmark::State& state) {
                          beam.fixed.data(), 1e-4, n};
   // gathered 1 (session 13, what the solver runs): the forward sweep gathers from the transposed
   // lower blocks (the upper blocks by column, rows ascending); 0: session 12's scatter.
-  std::vector<int> lower_offsets(n + 1, 0), lower_rows, upper_of_lower;
+  LowerTrianglePattern lower;
   std::vector<double> lower_blocks;
   if (state.range(1) == 1) {
-    std::vector<std::vector<std::pair<int, int>>> by_column(n);
-    for (size_t i = 0; i < n; ++i) {
-      for (auto k = static_cast<size_t>(offsets[i]) + 1; k < static_cast<size_t>(offsets[i + 1]); ++k) {
-        by_column[static_cast<size_t>(cols[k])].emplace_back(static_cast<int>(i), static_cast<int>(k));
-      }
-    }
-    for (size_t i = 0; i < n; ++i) {
-      for (const auto& [row, block] : by_column[i]) lower_rows.push_back(row), upper_of_lower.push_back(block);
-      lower_offsets[i + 1] = static_cast<int>(lower_rows.size());
-    }
-    lower_blocks.resize(9 * lower_rows.size() + 4);
-    transpose_lower_blocks(blocks.data(), upper_of_lower.data(), lower_rows.data(), beam.fixed.data(),
-                           lower_rows.size(), lower_blocks.data());
+    lower = lower_triangle_pattern(offsets.data(), cols.data(), n);
+    lower_blocks.resize(9 * lower.rows.size() + 4);
+    transpose_lower_blocks(blocks.data(), lower.upper_blocks.data(), lower.rows.data(), beam.fixed.data(),
+                           lower.rows.size(), lower_blocks.data());
     system.lower_blocks = lower_blocks.data();
-    system.lower_rows = lower_rows.data();
-    system.lower_offsets = lower_offsets.data();
+    system.lower_rows = lower.rows.data();
+    system.lower_offsets = lower.offsets.data();
   }
   std::vector<double> p(3 * n, 1.0), t(3 * n), q(3 * n), acc(3 * n), dv(3 * n), r(3 * n, 1.0), Dr(3 * n);
   for (size_t i = 0; i < n; ++i) {

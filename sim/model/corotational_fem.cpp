@@ -896,26 +896,7 @@ void CorotationalFem::set_vector_kernels(bool on) {
 void CorotationalFem::build_lower_pattern() const {
   if (block_row_offsets_.empty()) return;  // no assembled K'
   const size_t n = block_row_offsets_.size() - 1;
-  if (lower_offsets_.size() == n + 1) return;
-  // The upper triangle's blocks by column (built once: the sparsity is the mesh's). Rows are
-  // visited ascending, so each column's list is ascending in the row.
-  lower_offsets_.assign(n + 1, 0);
-  for (size_t i = 0; i < n; ++i) {
-    for (auto k = static_cast<size_t>(block_row_offsets_[i]) + 1; k < static_cast<size_t>(block_row_offsets_[i + 1]); ++k) {
-      lower_offsets_[static_cast<size_t>(block_cols_[k]) + 1]++;
-    }
-  }
-  for (size_t i = 0; i < n; ++i) lower_offsets_[i + 1] += lower_offsets_[i];
-  lower_rows_.resize(static_cast<size_t>(lower_offsets_[n]));
-  lower_blocks_.resize(lower_rows_.size());
-  std::vector<int> fill(lower_offsets_.begin(), lower_offsets_.end() - 1);
-  for (size_t i = 0; i < n; ++i) {
-    for (auto k = static_cast<size_t>(block_row_offsets_[i]) + 1; k < static_cast<size_t>(block_row_offsets_[i + 1]); ++k) {
-      const auto slot = static_cast<size_t>(fill[static_cast<size_t>(block_cols_[k])]++);
-      lower_rows_[slot] = static_cast<int>(i);
-      lower_blocks_[slot] = static_cast<int>(k);
-    }
-  }
+  if (lower_.offsets.size() != n + 1) lower_ = lower_triangle_pattern(block_row_offsets_.data(), block_cols_.data(), n);
 }
 
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)
@@ -960,13 +941,13 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   int it = 0;
   if (fused_sweeps_ && !coarse) {  // the forward sweep gathers from the transposed blocks (session 13, the same bits)
     build_lower_pattern();
-    lower_transposed_.resize(9 * lower_blocks_.size() + 4);
-    transpose_lower_blocks(sweeps.blocks, lower_blocks_.data(), lower_rows_.data(), sweeps.fixed,
-                           lower_blocks_.size(), lower_transposed_.data());
+    lower_transposed_.resize(9 * lower_.rows.size() + 4);
+    transpose_lower_blocks(sweeps.blocks, lower_.upper_blocks.data(), lower_.rows.data(), sweeps.fixed,
+                           lower_.rows.size(), lower_transposed_.data());
   }
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
-                              lower_transposed_.data(), lower_rows_.data(), lower_offsets_.data()};
+                              lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data()};
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     double pq = 0.0, rz_next = 0.0, a = 0.0;

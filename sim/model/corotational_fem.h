@@ -44,6 +44,7 @@
 
 #include "sim/model/coarse_correction.h"
 #include "sim/model/deformation_model.h"
+#include "sim/model/fused_ssor_kernels.h"
 
 namespace pliant {
 
@@ -351,11 +352,11 @@ class CorotationalFem final : public DeformationModel {
   /// ascending j: the order the serial product scatters them in) before its own row, the same bits.
   void apply_stiffness_pair_parallel(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
                                      std::span<Vec3> yb) const;
-  /// Builds lower_offsets_, lower_rows_ and lower_blocks_ from the block pattern (once).
+  /// Builds lower_ from the block pattern (once: the sparsity is the mesh's).
   void build_lower_pattern() const;
-  /// The transposed upper blocks by column: for row i, the blocks (j, i) with j < i, ascending j.
-  mutable std::vector<int> lower_offsets_, lower_rows_, lower_blocks_;
-  /// The fused forward sweep's K'_ji^T in lower_blocks_' order, zero for fixed rows j, + 4 padding (per solve).
+  /// The upper blocks by column: for row i, the blocks (j, i) with j < i, ascending j.
+  mutable LowerTrianglePattern lower_;
+  /// The fused forward sweep's K'_ji^T in lower_'s order, zero for fixed rows j, + 4 padding (per solve).
   std::vector<double> lower_transposed_;
   mutable std::vector<Mat3> tet_force_scratch_;  ///< per tet: -V P Dm^-T of the parallel pass (N)
   std::vector<int> dirty_rows_;                  ///< rows the reuse step sums again (parallel path)

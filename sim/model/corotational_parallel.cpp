@@ -85,9 +85,9 @@ void CorotationalFem::apply_stiffness_pair_parallel(std::span<const Vec3> a, std
   // (out[j] += B[0] p0 + B[1] p1 + B[2] p2 ... per transposed block, ascending rows, from 0).
   auto row = [&](size_t i, const double* q, double* out) {
     double t0 = 0.0, t1 = 0.0, t2 = 0.0;
-    for (auto k = static_cast<size_t>(lower_offsets_[i]); k < static_cast<size_t>(lower_offsets_[i + 1]); ++k) {
-      const double* B = m + 9 * static_cast<size_t>(lower_blocks_[k]);
-      const size_t j = 3 * static_cast<size_t>(lower_rows_[k]);
+    for (auto k = static_cast<size_t>(lower_.offsets[i]); k < static_cast<size_t>(lower_.offsets[i + 1]); ++k) {
+      const double* B = m + 9 * static_cast<size_t>(lower_.upper_blocks[k]);
+      const size_t j = 3 * static_cast<size_t>(lower_.rows[k]);
       const double pj0 = q[j], pj1 = q[j + 1], pj2 = q[j + 2];
       t0 += B[0] * pj0 + B[1] * pj1 + B[2] * pj2;
       t1 += B[3] * pj0 + B[4] * pj1 + B[5] * pj2;

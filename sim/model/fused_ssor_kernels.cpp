@@ -10,6 +10,29 @@
 
 namespace pliant {
 
+LowerTrianglePattern lower_triangle_pattern(const int* offsets, const int* cols, size_t n) {
+  // Rows are visited ascending, so each column's list comes out ascending in the row.
+  LowerTrianglePattern p;
+  p.offsets.assign(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    for (auto k = static_cast<size_t>(offsets[i]) + 1; k < static_cast<size_t>(offsets[i + 1]); ++k) {
+      p.offsets[static_cast<size_t>(cols[k]) + 1]++;
+    }
+  }
+  for (size_t i = 0; i < n; ++i) p.offsets[i + 1] += p.offsets[i];
+  p.rows.resize(static_cast<size_t>(p.offsets[n]));
+  p.upper_blocks.resize(p.rows.size());
+  std::vector<int> fill(p.offsets.begin(), p.offsets.end() - 1);
+  for (size_t i = 0; i < n; ++i) {
+    for (auto k = static_cast<size_t>(offsets[i]) + 1; k < static_cast<size_t>(offsets[i + 1]); ++k) {
+      const auto slot = static_cast<size_t>(fill[static_cast<size_t>(cols[k])]++);
+      p.rows[slot] = static_cast<int>(i);
+      p.upper_blocks[slot] = static_cast<int>(k);
+    }
+  }
+  return p;
+}
+
 #if defined(PLIANT_FUSED_SWEEPS)
 
 bool fused_sweeps_available() {

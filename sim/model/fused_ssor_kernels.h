@@ -16,11 +16,24 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 namespace pliant {
 
 /// True when this CPU runs the AVX2 + FMA kernels below.
 bool fused_sweeps_available();
+
+/// The lower triangle of a block-symmetric matrix stored as its upper triangle (row i: blocks
+/// [offsets[i], offsets[i + 1]), the diagonal first, then the columns j > i): per row i, the stored
+/// blocks (j, i), j < i, ascending j.
+struct LowerTrianglePattern {
+  std::vector<int> offsets;       ///< n + 1: row i's entries are [offsets[i], offsets[i + 1])
+  std::vector<int> rows;          ///< per entry, its row j in the upper storage
+  std::vector<int> upper_blocks;  ///< per entry, its block index in the upper storage
+};
+
+/// Builds the pattern by a counting sort over the columns (any CPU).
+LowerTrianglePattern lower_triangle_pattern(const int* offsets, const int* cols, size_t n);
 
 /// acc_{cols[b]} += B_b^T y for blocks b in [first, last) (acc packed xyz per vertex). Only on a
 /// CPU where fused_sweeps_available().
