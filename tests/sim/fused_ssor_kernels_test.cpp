@@ -203,7 +203,9 @@ void expect_sweeps_equal_reference(RandomSystem& sys, const FusedSsorSystem& fs,
   const double pq_ref = reference_sweeps(fs, p.data(), t_ref.data(), q_ref.data(), acc_ref.data());
   EXPECT_TRUE(same_bits(t, t_ref));
   EXPECT_TRUE(same_bits(q, q_ref));
-  if (compare_acc) EXPECT_TRUE(same_bits(acc, acc_ref));
+  if (compare_acc) {
+    EXPECT_TRUE(same_bits(acc, acc_ref));
+  }
   EXPECT_EQ(std::memcmp(&pq, &pq_ref, sizeof(double)), 0) << pq << " vs " << pq_ref;
 }
 
