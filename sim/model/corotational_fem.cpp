@@ -292,6 +292,17 @@ void CorotationalFem::assemble_row(size_t i, const Mat3* gradients, const char* 
   }
 }
 
+void CorotationalFem::assemble_all_rows(const Mat3* gradients) {
+  if (vector_kernels_) {  // each block's terms in the rows' order, ascending tet (stiffness_row_kernels.h)
+    const StiffnessRowSystem sys{blocks_.data()->data(), gradients->data(), volume_.data(), tet_blocks_.data()->data(),
+                                 &corners_.data()->tet, mu_, lambda_};
+    sum_stiffness_by_tet(sys, blocks_.size(), static_cast<size_t>(mesh_->tet_count()));
+    return;
+  }
+  const auto n = static_cast<size_t>(mesh_->vertex_count());
+  for (size_t i = 0; i < n; ++i) assemble_row(i, gradients);
+}
+
 Mat3 CorotationalFem::rotated_gradient(size_t t) const {
   return rotations_[t].toRotationMatrix() * rest_shape_inverse_[t].transpose();
 }
@@ -318,7 +329,7 @@ void CorotationalFem::assemble_stiffness() {
   if (runs_parallel(executor_)) {
     assemble_rows_parallel({}, rotated_gradients_.data());
   } else {
-    for (size_t i = 0; i < n; ++i) assemble_row(i, rotated_gradients_.data());
+    assemble_all_rows(rotated_gradients_.data());
   }
   stiffness_assembled_ = true;
   step_blocks_valid_ = false;
@@ -345,7 +356,7 @@ void CorotationalFem::assemble_step_stiffness() {
     if (runs_parallel(executor_)) {
       assemble_rows_parallel({}, block_gradients_.data());
     } else {
-      for (size_t i = 0; i < n; ++i) assemble_row(i, block_gradients_.data());
+      assemble_all_rows(block_gradients_.data());
     }
     stiffness_assembled_ = true;
     step_blocks_valid_ = true;
@@ -410,12 +421,15 @@ void CorotationalFem::assemble_step_stiffness() {
     }
   };
   if (!every_tet_moved) flag_moved_tets_blocks(1);
-  const char* flags = every_tet_moved ? nullptr : block_dirty_.data();
-  size_t rows = 0;
-  for (size_t i = 0; i < n; ++i) {
-    if (row_dirty_[i] == 0) continue;
-    assemble_row(i, block_gradients_.data(), flags);
-    ++rows;
+  // A vertex in no tet has no dirty row; its (diagonal) block is zero since the first assembly, which
+  // assemble_all_rows writes again.
+  const size_t rows = static_cast<size_t>(std::count(row_dirty_.begin(), row_dirty_.end(), char{1}));
+  if (every_tet_moved) {
+    assemble_all_rows(block_gradients_.data());
+  } else {
+    for (size_t i = 0; i < n; ++i) {
+      if (row_dirty_[i] != 0) assemble_row(i, block_gradients_.data(), block_dirty_.data());
+    }
   }
   if (!every_tet_moved) flag_moved_tets_blocks(0);
   reassembled_rows_ = rows;
