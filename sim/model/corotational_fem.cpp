@@ -421,14 +421,17 @@ void CorotationalFem::assemble_step_stiffness() {
     }
   };
   if (!every_tet_moved) flag_moved_tets_blocks(1);
-  // A vertex in no tet has no dirty row; its (diagonal) block is zero since the first assembly, which
-  // assemble_all_rows writes again.
-  const size_t rows = static_cast<size_t>(std::count(row_dirty_.begin(), row_dirty_.end(), char{1}));
+  size_t rows = 0;
   if (every_tet_moved) {
+    // A vertex in no tet has no dirty row; its (diagonal) block is zero since the first assembly,
+    // which assemble_all_rows writes again.
     assemble_all_rows(block_gradients_.data());
+    rows = static_cast<size_t>(std::count(row_dirty_.begin(), row_dirty_.end(), char{1}));
   } else {
     for (size_t i = 0; i < n; ++i) {
-      if (row_dirty_[i] != 0) assemble_row(i, block_gradients_.data(), block_dirty_.data());
+      if (row_dirty_[i] == 0) continue;
+      assemble_row(i, block_gradients_.data(), block_dirty_.data());
+      ++rows;
     }
   }
   if (!every_tet_moved) flag_moved_tets_blocks(0);
