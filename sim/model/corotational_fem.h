@@ -190,6 +190,9 @@ class CorotationalFem final : public DeformationModel {
   /// Sums vertex row i of K' from `gradients` (per tet, rotated shape gradients) of the tets around i;
   /// with block_dirty (a flag per block), only the flagged blocks (the same sums, the same bits).
   void assemble_row(size_t i, const Mat3* gradients, const char* block_dirty = nullptr);
+  /// Every vertex row of K' from `gradients`, serially: assemble_row for each i, bit for bit (by tet
+  /// in AVX2 lanes where the kernels run, stiffness_row_kernels.h).
+  void assemble_all_rows(const Mat3* gradients);
   /// advance's K': assemble_stiffness, or only the rows around tets whose rotation left the
   /// tolerance of stiffness_rotation_tolerance_.
   void assemble_step_stiffness();

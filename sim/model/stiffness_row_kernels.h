@@ -42,6 +42,12 @@ struct StiffnessRowSystem {
 void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t last_block, size_t first_corner,
                        size_t last_corner, const char* block_dirty = nullptr);
 
+/// Zeroes the blocks [0, block_count) and sums into them every vertex row's blocks from the tets
+/// [0, tet_count) in tet order: bit for bit sum_stiffness_row over all rows, whose corners are
+/// ascending by tet (the order each block's terms are added in both). Only where
+/// stiffness_row_kernels_available().
+void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t block_count, size_t tet_count);
+
 /// True when one of a tet corner's four block slots (-1: stored in the other vertex's row) is
 /// flagged in block_dirty: the corner adds to a block being summed again.
 inline bool corner_adds_to_dirty_block(const int* slots, const char* block_dirty) {

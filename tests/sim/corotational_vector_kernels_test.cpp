@@ -4,6 +4,8 @@
 // (set_vector_kernels(false), the code before). Skipped on a CPU without AVX2.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <random>
 
@@ -73,6 +75,73 @@ TEST(VectorStiffnessRows, AssembleTheScalarBlocksBitForBit) {
   vector.apply_stiffness(p, ya);
   scalar.apply_stiffness(p, yb);
   EXPECT_TRUE(same_bits(ya, yb));
+}
+
+// Session 14: the full K' summed tet by tet (sum_stiffness_by_tet) against the row by row kernel
+// (sum_stiffness_row over every row), on a box mesh's pattern with random gradients over 12
+// decades, signs and signed zeros, and a vertex in no tet (its diagonal block only): every block
+// bit for bit, the blocks starting as garbage.
+TEST(VectorStiffnessRows, SummedByTetEqualsRowByRowBitForBit) {
+  if (!stiffness_row_kernels_available()) GTEST_SKIP() << "no AVX2 on this CPU";
+  const TetMeshPtr box = make_box_mesh({Vec3(0.6, 0.1, 0.1), 9, 2, 2});
+  const auto nt = static_cast<size_t>(box->tet_count());
+  const size_t n = static_cast<size_t>(box->vertex_count()) + 1;  // the last vertex is in no tet
+  // The model's pattern (CorotationalFem's constructor): upper rows, diagonal first, then ascending.
+  std::vector<int> row_offsets{0}, cols, corners;
+  std::vector<size_t> corner_offsets{0};
+  for (size_t v = 0; v < n; ++v) {
+    std::vector<int> row{static_cast<int>(v)};
+    if (v + 1 < n) {
+      for (int j : box->vertex_neighbors(static_cast<int>(v))) {
+        if (j > static_cast<int>(v)) row.push_back(j);
+      }
+      std::sort(row.begin() + 1, row.end());
+      for (int t : box->vertex_tets(static_cast<int>(v))) {
+        const auto& tet = box->tets()[static_cast<size_t>(t)];
+        corners.push_back(t);
+        corners.push_back(static_cast<int>(std::find(tet.begin(), tet.end(), static_cast<int>(v)) - tet.begin()));
+      }
+    }
+    cols.insert(cols.end(), row.begin(), row.end());
+    row_offsets.push_back(static_cast<int>(cols.size()));
+    corner_offsets.push_back(corners.size() / 2);
+  }
+  std::vector<int> tet_blocks(16 * nt);
+  for (size_t t = 0; t < nt; ++t) {
+    const auto& tet = box->tets()[t];
+    for (size_t i = 0; i < 4; ++i) {
+      const auto b = cols.begin() + row_offsets[static_cast<size_t>(tet[i])];
+      const auto e = cols.begin() + row_offsets[static_cast<size_t>(tet[i]) + 1];
+      for (size_t j = 0; j < 4; ++j) {
+        tet_blocks[16 * t + 4 * i + j] = tet[j] < tet[i] ? -1 : static_cast<int>(std::find(b, e, tet[j]) - cols.begin());
+      }
+    }
+  }
+  std::mt19937 rng(14);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-6, 6), pick(0, 19);
+  const auto entry = [&] {
+    const int k = pick(rng);
+    if (k == 0) return 0.0;
+    if (k == 1) return -0.0;
+    return mantissa(rng) * std::pow(10.0, exponent(rng));
+  };
+  std::vector<double> gradients(9 * nt), volume(nt);
+  for (double& g : gradients) g = entry();
+  for (double& V : volume) V = std::abs(mantissa(rng)) * std::pow(10.0, exponent(rng));
+  std::vector<double> by_row(9 * cols.size()), by_tet(9 * cols.size());
+  for (double& b : by_row) b = entry();
+  for (double& b : by_tet) b = entry();
+  StiffnessRowSystem sys{by_row.data(), gradients.data(), volume.data(), tet_blocks.data(), corners.data(), 3.3e4, 3e5};
+  for (size_t i = 0; i < n; ++i) {
+    sum_stiffness_row(sys, static_cast<size_t>(row_offsets[i]), static_cast<size_t>(row_offsets[i + 1]),
+                      corner_offsets[i], corner_offsets[i + 1]);
+  }
+  sys.blocks = by_tet.data();
+  sum_stiffness_by_tet(sys, cols.size(), nt);
+  ASSERT_EQ(0, std::memcmp(by_row.data(), by_tet.data(), by_row.size() * sizeof(double)));
+  // Not a vacuous comparison: the blocks are not all zero.
+  EXPECT_GT(std::count_if(by_row.begin(), by_row.end(), [](double b) { return b != 0.0; }), 0);
 }
 
 }  // namespace
