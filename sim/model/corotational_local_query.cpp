@@ -43,6 +43,9 @@
 // - Session 13: whole in-slot batches take R from the extraction's lanes
 //   (extract_rotation_matrices_batch_avx2, q normalised and R built there, the same bits), so the
 //   stress kernel does not rebuild R from q per tet.
+// - Session 14: the exact query's whole batches of four run F = Ds Dm^-1, the extraction, R and P
+//   in one kernel's lanes (exact_query_stresses_avx2), F and R stored straight where the nearby
+//   query remembers them: no F per tet gathered again, no R stored and loaded again (same bits).
 #include <algorithm>
 #include <cstring>
 
@@ -130,14 +133,45 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
   begin_local_query();
   query_pending_.clear();
   const bool gradient_kernels = vector_kernels_ && tet_gradient_kernels_available();
+  // Session 14: whole batches of four compute F in the extraction's lanes (exact_query_stresses_avx2),
+  // so F is not computed here one tet at a time and gathered again by the extraction.
+  const bool whole_batch_kernel = gradient_kernels && query_stress_kernels_available() &&
+                                  evaluation_batch_lanes() == kRotationBatchLanesAvx2;
   for (const int v : vertices) {
     for (int t : mesh_->vertex_tets(v)) {
       const auto ts = static_cast<size_t>(t);
       const auto [slot, fresh] = local_query_slot(ts);
       if (!fresh) continue;
-      query_deformation_gradient(x, ts, gradient_kernels, query_forces_[slot]);  // F, until the extraction below
+      // F, until the extraction below (for whole batches: in the kernel)
+      if (!whole_batch_kernel) query_deformation_gradient(x, ts, gradient_kernels, query_forces_[slot]);
       query_pending_.push_back(t);
     }
+  }
+  if (whole_batch_kernel) {
+    // Every slot is a pending tet, in order (slot k = pending tet k), so batch i's stresses go to
+    // slots i .. i + 3; F and R go straight to the nearby query's memory (remember_rotation).
+    constexpr size_t L = kRotationBatchLanesAvx2;
+    const size_t whole = query_pending_.size() / L * L;
+    Quat q[L];
+    Mat3 *F[L], *R[L];
+    for (size_t i = 0; i < whole; i += L) {
+      for (size_t l = 0; l < L; ++l) {
+        const auto t = static_cast<size_t>(query_pending_[i + l]);
+        q[l] = rotations_[t];  // warm start; the stored rotation is left as it is
+        F[l] = &nearby_key_[t];
+        R[l] = &nearby_rotation_[t];
+        nearby_cached_[t] = 1;
+      }
+      exact_query_stresses_avx2(x.data()->data(), mesh_->tets().data(), rest_shape_inverse_.data(),
+                                query_pending_.data() + i, q, mu_, lambda_, kElementRotationIterations,
+                                kElementRotationTolerance, F, R, query_forces_.data() + i);
+    }
+    // The last few: F into their slots, then the batched path below on them alone (a short batch
+    // there, as before).
+    for (size_t k = whole; k < query_pending_.size(); ++k) {
+      query_deformation_gradient(x, static_cast<size_t>(query_pending_[k]), gradient_kernels, query_forces_[k]);
+    }
+    query_pending_.erase(query_pending_.begin(), query_pending_.begin() + static_cast<std::ptrdiff_t>(whole));
   }
   exact_query_stresses_batched();
   sum_query_stresses(vertices, f);

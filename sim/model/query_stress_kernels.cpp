@@ -1,6 +1,11 @@
 #include "sim/model/query_stress_kernels.h"
 
 #include "sim/model/exact_avx2.h"
+#include "sim/model/rotation_extraction.h"
+
+#if defined(PLIANT_EXACT_AVX2_KERNELS)
+#include "sim/model/matrix_entry_lanes.h"
+#endif
 
 namespace pliant {
 
@@ -58,6 +63,86 @@ PLIANT_AVX2_ONLY void first_piola_stresses_from_rotations_avx2(const Mat3* R, co
   for (size_t l = 0; l < count; ++l) first_piola_stress(R[l], F[l], two_mu, lambda, P[l]);
 }
 
+namespace {
+
+/// A 9-entry sum of column-major entries in Eigen's SSE2 redux order (R.cwiseProduct(F).sum()):
+/// ((e0 + e2) + (e4 + e6)) + ((e1 + e3) + (e5 + e7)), then + e8 (tet_gradient_kernels.cpp has the
+/// same for the full pass; kept apart, see the header's design note).
+PLIANT_AVX2_ONLY inline __m256d entry_sum9(const __m256d e[9]) {
+  const __m256d even = _mm256_add_pd(_mm256_add_pd(e[0], e[2]), _mm256_add_pd(e[4], e[6]));
+  const __m256d odd = _mm256_add_pd(_mm256_add_pd(e[1], e[3]), _mm256_add_pd(e[5], e[7]));
+  return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
+}
+
+}  // namespace
+
+// "flatten" inlines the extraction's lane templates here, so they are compiled for AVX2 (as in
+// rotation_batch_avx2.cpp).
+PLIANT_AVX2_ONLY __attribute__((flatten)) void exact_query_stresses_avx2(
+    const double* x, const TetIndices* mesh_tets, const Mat3* rest_shape_inverse, const int* tets, Quat* q, double mu,
+    double lambda, int max_iterations, double tolerance, Mat3* const* F, Mat3* const* R, Mat3* P) {
+  using Lanes = rotation_batch_detail::LaneTypes<4>::Lanes;
+  // Ds's columns d_k = x_{k+1} - x_0 per tet (lanes 0..2 xyz), then per k a 4x4 transpose: lane l
+  // of ds[i + 3 k] is Ds(i, k) of tet l.
+  __m256d d[4][3];
+  const double* B[4];
+  for (int l = 0; l < 4; ++l) {
+    const auto t = static_cast<size_t>(tets[l]);
+    const TetIndices& tet = mesh_tets[t];
+    const __m256d x0 = exact_lanes::load3(x + 3 * static_cast<size_t>(tet[0]));
+    for (int k = 0; k < 3; ++k) {
+      d[l][k] = _mm256_sub_pd(exact_lanes::load3(x + 3 * static_cast<size_t>(tet[static_cast<size_t>(k) + 1])), x0);
+    }
+    B[l] = rest_shape_inverse[t].data();
+  }
+  __m256d ds[9];
+  for (int k = 0; k < 3; ++k) {
+    const __m256d t0 = _mm256_unpacklo_pd(d[0][k], d[1][k]), t1 = _mm256_unpackhi_pd(d[0][k], d[1][k]);
+    const __m256d t2 = _mm256_unpacklo_pd(d[2][k], d[3][k]), t3 = _mm256_unpackhi_pd(d[2][k], d[3][k]);
+    ds[3 * k] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    ds[3 * k + 1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    ds[3 * k + 2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+  }
+  __m256d b[9];  // b[k + 3 j] = Dm^-1(k, j) per lane
+  matrix_lanes::load_entries(B[0], B[1], B[2], B[3], b);
+  // F = Ds Dm^-1 in Eigen's order (exact_lanes::product_column): rows 0 and 1 (p0 + p1) + p2,
+  // row 2 p0 + (p1 + p2).
+  __m256d f[9];
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) {
+      const __m256d p0 = _mm256_mul_pd(ds[i], b[3 * j]), p1 = _mm256_mul_pd(ds[i + 3], b[3 * j + 1]);
+      const __m256d p2 = _mm256_mul_pd(ds[i + 6], b[3 * j + 2]);
+      f[i + 3 * j] = i < 2 ? _mm256_add_pd(_mm256_add_pd(p0, p1), p2) : _mm256_add_pd(p0, _mm256_add_pd(p1, p2));
+    }
+  }
+  matrix_lanes::store_entries(f, F[0]->data(), F[1]->data(), F[2]->data(), F[3]->data());
+  // The extraction's iteration on these lanes (a lane taking the SVD start reads its stored F).
+  Lanes Fl[3][3], qx, qy, qz, qw, count;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) Fl[i][j] = f[i + 3 * j];
+  }
+  rotation_batch_detail::iterate_rotation_lanes<4>(Fl, [&](int l) -> const Mat3& { return *F[l]; }, q, max_iterations,
+                                                   tolerance, qx, qy, qz, qw, count);
+  rotation_batch_detail::normalise_quaternion_lanes<4>(qx, qy, qz, qw);
+  Lanes Rl[3][3];
+  rotation_batch_detail::rotation_matrix_lanes<4>(qx, qy, qz, qw, Rl);
+  __m256d r[9];
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r[i + 3 * j] = Rl[i][j];
+  }
+  matrix_lanes::store_entries(r, R[0]->data(), R[1]->data(), R[2]->data(), R[3]->data());
+  // P = (2 mu) (F - R) + (lambda tr) R, tr = sum of R .* F - 3 (first_piola_stress's operations).
+  __m256d e[9];
+  for (int k = 0; k < 9; ++k) e[k] = _mm256_mul_pd(r[k], f[k]);
+  const __m256d trace = _mm256_sub_pd(entry_sum9(e), _mm256_set1_pd(3.0));
+  const __m256d two_mu = _mm256_set1_pd(2.0 * mu), lambda_trace = _mm256_mul_pd(_mm256_set1_pd(lambda), trace);
+  __m256d p[9];
+  for (int k = 0; k < 9; ++k) {
+    p[k] = _mm256_add_pd(_mm256_mul_pd(two_mu, _mm256_sub_pd(f[k], r[k])), _mm256_mul_pd(lambda_trace, r[k]));
+  }
+  matrix_lanes::store_entries(p, P[0].data(), P[1].data(), P[2].data(), P[3].data());
+}
+
 PLIANT_AVX2_ONLY void corner_stress_sum_avx2(const int* corner_tets, size_t corner_stride, const Vec3* corner_gradients,
                                              size_t count, const int* tet_slots, const Mat3* slot_stresses,
                                              const double* volumes, double* f) {
@@ -82,6 +167,9 @@ bool query_stress_kernels_available() { return false; }
 void first_piola_stresses_avx2(const Quat*, const Mat3*, double, double, size_t, Mat3*, Mat3*) {}
 
 void first_piola_stresses_from_rotations_avx2(const Mat3*, const Mat3*, double, double, size_t, Mat3*) {}
+
+void exact_query_stresses_avx2(const double*, const TetIndices*, const Mat3*, const int*, Quat*, double, double, int,
+                               double, Mat3* const*, Mat3* const*, Mat3*) {}
 
 void corner_stress_sum_avx2(const int*, size_t, const Vec3*, size_t, const int*, const Mat3*, const double*, double*) {}
 

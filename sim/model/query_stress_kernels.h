@@ -11,7 +11,8 @@
 // and sum_query_stresses bit for bit (tested: corotational_query_kernels_test). A -march=native build
 // has Eigen's AVX packets and FMA in the scalar code: there the kernels report themselves
 // unavailable. Kept apart from tet_gradient_kernels.* (the full pass's kernels) so the two change
-// independently.
+// independently. Session 14: exact_query_stresses_avx2 runs a whole batch of the exact query in
+// lanes (F from the positions, the extraction's iteration from rotation_extraction.h, R, P).
 #pragma once
 
 #include <cstddef>
@@ -33,6 +34,16 @@ void first_piola_stresses_avx2(const Quat* q, const Mat3* F, double mu, double l
 /// extract_rotation_matrices_batch_avx2): P[l] may be F[l] (each tet's F is read whole first).
 void first_piola_stresses_from_rotations_avx2(const Mat3* R, const Mat3* F, double mu, double lambda, size_t count,
                                               Mat3* P);
+
+/// The exact query's stress of four tets (session 14): F_l = Ds Dm^-1 of tet tets[l] of mesh_tets
+/// (positions x, packed xyz per vertex; rest_shape_inverse per mesh tet) into *F[l], the rotation
+/// extract_rotation gives from F_l and the warm start q[l] (q[l] is scratch, rewritten where the SVD start is taken) into *R[l] as
+/// toRotationMatrix(), and P[l] = (2 mu) (F_l - R_l) + (lambda tr) R_l: CorotationalFem's
+/// deformation_gradient, extract_rotation and first_piola bit for bit, all in the lanes of one
+/// batch (no F computed per tet and gathered again, no R stored and loaded again).
+void exact_query_stresses_avx2(const double* x, const TetIndices* mesh_tets, const Mat3* rest_shape_inverse,
+                               const int* tets, Quat* q, double mu, double lambda, int max_iterations,
+                               double tolerance, Mat3* const* F, Mat3* const* R, Mat3* P);
 
 /// f = -sum over `count` corners c, in order, of V_t (P_s g_c): t = corner_tets[c * corner_stride], s =
 /// tet_slots[t], P_s = slot_stresses[s] (Pa), V_t = volumes[t] (m^3), g_c = corner_gradients[c] (1/m);

@@ -153,34 +153,35 @@ inline bool any(const Mask& m) {
   }
   return false;
 }
-}  // namespace rotation_batch_detail
 
-/// extract_rotation for L tets at once (F[l], warm starts q[l]), bit for bit the scalar's result
-/// per lane; iterations[l] (optional) receives each lane's count, and rotation_matrices[l] (optional) the rotation
-/// matrix q[l].toRotationMatrix(), bit for bit. L = 4 wants AVX registers (see
-/// extract_rotations_batch_avx2 in sim/model/rotation_batch_avx2.h for the run-time choice).
-template <int L>
-inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
-                                    int* iterations = nullptr, Mat3* rotation_matrices = nullptr) {
-  using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
-  using Mask = typename rotation_batch_detail::LaneTypes<L>::Mask;
-  // Gathered through memcpy (element inserts into vector arrays trip GCC's maybe-uninitialized);
-  // written through a reference, not returned (a 32-byte vector returned by a helper compiled
-  // without AVX would change the ABI: -Wpsabi).
-  const auto gather = [](Lanes& v, auto value_of_lane) {
-    double values[L];
-    for (int l = 0; l < L; ++l) values[l] = value_of_lane(l);
-    std::memcpy(&v, values, sizeof(v));
-  };
-  Lanes G[3][3], Fl[3][3];  // G(i, j) and F(i, j) per lane
-  Lanes qx, qy, qz, qw;
+/// v's lane l = value_of_lane(l). Through memcpy (element inserts into vector arrays trip GCC's
+/// maybe-uninitialized); written through a reference, not returned (a 32-byte vector returned by a
+/// helper compiled without AVX would change the ABI: -Wpsabi).
+template <int L, class ValueOfLane>
+inline void gather(typename LaneTypes<L>::Lanes& v, ValueOfLane value_of_lane) {
+  double values[L];
+  for (int l = 0; l < L; ++l) values[l] = value_of_lane(l);
+  std::memcpy(&v, values, sizeof(v));
+}
+
+/// extract_rotation's start and Newton iteration for L tets in lanes, from F's entries Fl[i][j]
+/// (lane l = tet l; F_of_lane(l) the same F as a matrix, read by a lane that takes the SVD start)
+/// and the warm starts q[l] (rewritten only by the SVD start): leaves each lane's unnormalised
+/// quaternion in qx, qy, qz, qw and its update count in count (session 14: shared by
+/// extract_rotations_lanes and the exact query's kernel, which computes F in the lanes itself).
+template <int L, class FOfLane>
+inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3], FOfLane F_of_lane, Quat* q,
+                                   int max_iterations, double tolerance, typename LaneTypes<L>::Lanes& qx,
+                                   typename LaneTypes<L>::Lanes& qy, typename LaneTypes<L>::Lanes& qz,
+                                   typename LaneTypes<L>::Lanes& qw, typename LaneTypes<L>::Lanes& count) {
+  using Lanes = typename LaneTypes<L>::Lanes;
+  using Mask = typename LaneTypes<L>::Mask;
+  const auto gather = [](Lanes& v, auto value_of_lane) { rotation_batch_detail::gather<L>(v, value_of_lane); };
+  Lanes G[3][3];  // G(i, j) per lane
   gather(qx, [&](int l) { return q[l].x(); });
   gather(qy, [&](int l) { return q[l].y(); });
   gather(qz, [&](int l) { return q[l].z(); });
   gather(qw, [&](int l) { return q[l].w(); });
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) gather(Fl[i][j], [&](int l) { return F[l](i, j); });
-  }
   // rotation_iteration_start in the lanes: R = q.toRotationMatrix() (Eigen's expressions), G = R^T F.
   {
     const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
@@ -196,8 +197,8 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
   }
   for (int l = 0; l < L; ++l) {
     // A warm start facing away (the SVD start) is rare: that lane runs the scalar start again.
-    if (G[0][0][l] + (G[1][1][l] + G[2][2][l]) <= 0.0 && F[l].allFinite()) {
-      const Mat3 start = rotation_iteration_start(F[l], q[l]);
+    if (G[0][0][l] + (G[1][1][l] + G[2][2][l]) <= 0.0 && F_of_lane(l).allFinite()) {
+      const Mat3 start = rotation_iteration_start(F_of_lane(l), q[l]);
       for (int i = 0; i < 3; ++i) {
         for (int j = 0; j < 3; ++j) G[i][j][l] = start(i, j);
       }
@@ -211,8 +212,8 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
   const Lanes zero = {};
   const Mask all_lanes = zero < zero + 1.0, no_lanes = {};
   Mask active = all_lanes;
-  Lanes count = zero;
-  for (int it = 0; it < max_iterations && rotation_batch_detail::any<L>(active); ++it) {
+  count = zero;
+  for (int it = 0; it < max_iterations && any<L>(active); ++it) {
     const Lanes g0 = G[2][1] - G[1][2], g1 = G[0][2] - G[2][0], g2 = G[1][0] - G[0][1];
     const Lanes tr = G[0][0] + (G[1][1] + G[2][2]);  // Eigen's unrolled trace: a + (b + c)
     const Lanes denom = (tr < 0.0 ? -tr : tr) + 1e-9;
@@ -253,7 +254,7 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
     const Lanes newton_angle_sq = newton_step ? angle_sq : zero;  // < 1 where the scalar squares it
     const Mask last = (newton_step & (newton_angle_sq * newton_angle_sq < tolerance_sq)) | at_cap;
     active = moves & ~last;
-    if (!rotation_batch_detail::any<L>(active)) break;
+    if (!any<L>(active)) break;
     // G <- n^2 Q^T G (extract_rotation's update) for the lanes that go on; the others by Q = 4 I
     // (u = 0, w = 2), discarded.
     const Lanes v0 = active ? u0 : zero, v1 = active ? u1 : zero, v2 = active ? u2 : zero;
@@ -270,29 +271,64 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
       for (int j = 0; j < 3; ++j) G[i][j] = active ? next[i][j] : G[i][j];
     }
   }
+}
+
+/// Eigen's (SSE2) Quaternion::normalize in lanes: n = (x^2 + z^2) + (y^2 + w^2), each coefficient
+/// divided by sqrt(n) where n > 0 (sqrt and division are correctly rounded, so the same bits).
+template <int L>
+inline void normalise_quaternion_lanes(typename LaneTypes<L>::Lanes& qx, typename LaneTypes<L>::Lanes& qy,
+                                       typename LaneTypes<L>::Lanes& qz, typename LaneTypes<L>::Lanes& qw) {
+  using Lanes = typename LaneTypes<L>::Lanes;
+  using Mask = typename LaneTypes<L>::Mask;
+  const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw);
+  const Mask positive = n > 0.0;
+  Lanes s;  // sqrt(n) where n > 0 (GCC's vector types have no sqrt; 1 elsewhere, unused)
+  gather<L>(s, [&](int l) { return n[l] > 0.0 ? std::sqrt(n[l]) : 1.0; });
+  qx = positive ? qx / s : qx;
+  qy = positive ? qy / s : qy;
+  qz = positive ? qz / s : qz;
+  qw = positive ? qw / s : qw;
+}
+
+/// Rl[i][j] = R(i, j) of q.toRotationMatrix() per lane (Eigen's expressions) for a unit q.
+template <int L>
+inline void rotation_matrix_lanes(const typename LaneTypes<L>::Lanes& qx, const typename LaneTypes<L>::Lanes& qy,
+                                  const typename LaneTypes<L>::Lanes& qz, const typename LaneTypes<L>::Lanes& qw,
+                                  typename LaneTypes<L>::Lanes (&Rl)[3][3]) {
+  using Lanes = typename LaneTypes<L>::Lanes;
+  const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
+  const Lanes twx = tx * qw, twy = ty * qw, twz = tz * qw;
+  const Lanes txx = tx * qx, txy = ty * qx, txz = tz * qx;
+  const Lanes tyy = ty * qy, tyz = tz * qy, tzz = tz * qz;
+  Rl[0][0] = 1.0 - (tyy + tzz), Rl[0][1] = txy - twz, Rl[0][2] = txz + twy;
+  Rl[1][0] = txy + twz, Rl[1][1] = 1.0 - (txx + tzz), Rl[1][2] = tyz - twx;
+  Rl[2][0] = txz - twy, Rl[2][1] = tyz + twx, Rl[2][2] = 1.0 - (txx + tyy);
+}
+}  // namespace rotation_batch_detail
+
+/// extract_rotation for L tets at once (F[l], warm starts q[l]), bit for bit the scalar's result
+/// per lane; iterations[l] (optional) receives each lane's count, and rotation_matrices[l] (optional) the rotation
+/// matrix q[l].toRotationMatrix(), bit for bit. L = 4 wants AVX registers (see
+/// extract_rotations_batch_avx2 in sim/model/rotation_batch_avx2.h for the run-time choice).
+template <int L>
+inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
+                                    int* iterations = nullptr, Mat3* rotation_matrices = nullptr) {
+  using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
+  const auto gather = [](Lanes& v, auto value_of_lane) { rotation_batch_detail::gather<L>(v, value_of_lane); };
+  Lanes Fl[3][3];  // F(i, j) per lane
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) gather(Fl[i][j], [&](int l) { return F[l](i, j); });
+  }
+  Lanes qx, qy, qz, qw, count;
+  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
+                                                   tolerance, qx, qy, qz, qw, count);
   if (L == 4 || rotation_matrices != nullptr) {
     // Session 13: the normalisation in the lanes (the per-lane normalisation was ~23 instructions
     // per tet), and for the local queries' stress the rotation matrix too (its own
-    // toRotationMatrix per tet was ~30). Eigen's (SSE2) Quaternion::normalize: n = (x^2 + z^2) +
-    // (y^2 + w^2), each coefficient divided by sqrt(n) where n > 0 (sqrt and division are
-    // correctly rounded, so the same bits).
-    const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw);
-    const Mask positive = n > 0.0;
-    Lanes s;  // sqrt(n) where n > 0 (GCC's vector types have no sqrt; 1 elsewhere, unused)
-    gather(s, [&](int l) { return n[l] > 0.0 ? std::sqrt(n[l]) : 1.0; });
-    qx = positive ? qx / s : qx;
-    qy = positive ? qy / s : qy;
-    qz = positive ? qz / s : qz;
-    qw = positive ? qw / s : qw;
-    // q.toRotationMatrix()'s expressions (as for the start above), where asked for.
+    // toRotationMatrix per tet was ~30).
+    rotation_batch_detail::normalise_quaternion_lanes<L>(qx, qy, qz, qw);
     const auto rotation_entries = [&](Lanes (&Rl)[3][3]) {
-      const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
-      const Lanes twx = tx * qw, twy = ty * qw, twz = tz * qw;
-      const Lanes txx = tx * qx, txy = ty * qx, txz = tz * qx;
-      const Lanes tyy = ty * qy, tyz = tz * qy, tzz = tz * qz;
-      Rl[0][0] = 1.0 - (tyy + tzz), Rl[0][1] = txy - twz, Rl[0][2] = txz + twy;
-      Rl[1][0] = txy + twz, Rl[1][1] = 1.0 - (txx + tzz), Rl[1][2] = tyz - twx;
-      Rl[2][0] = txz - twy, Rl[2][1] = tyz + twx, Rl[2][2] = 1.0 - (txx + tyy);
+      rotation_batch_detail::rotation_matrix_lanes<L>(qx, qy, qz, qw, Rl);
     };
     if constexpr (L == 4) {
       // Out of the lanes by 4x4 transposes: q's coefficients (x, y, z, w) and R's column-major

@@ -9,11 +9,13 @@
 // to 1e-12 (and the iteration count to one).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
 #include <vector>
 
+#include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
 #include "sim/model/rotation_extraction.h"
 
@@ -170,6 +172,87 @@ TEST(RotationExtractionBatch, AvxRotationMatricesEqualTheScalarsBitForBit) {
       ASSERT_TRUE(same_bits(batch[l], scalar[l])) << "trial " << trial << " lane " << l;
       ASSERT_EQ(std::memcmp(R[l].data(), expected.data(), 9 * sizeof(double)), 0)
           << "trial " << trial << " lane " << l << ":\n" << R[l] << "\nvs\n" << expected;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 20000 * L);
+}
+
+// Session 14: the exact query's whole batches compute F = Ds Dm^-1 in the extraction's lanes, then
+// R and P there (exact_query_stresses_avx2). Against the scalar query's operations per tet:
+// CorotationalFem::deformation_gradient's Ds * Dm^-1 from the positions, extract_rotation from the
+// warm start, toRotationMatrix and first_piola's P, bit for bit. Each lane's F is one of the cases
+// above (through a random rest shape, so Dm^-1 is full and every term of Eigen's row order counts),
+// its tet a random one of a small mesh with shuffled vertex numbers.
+TEST(RotationExtractionBatch, ExactQueryStressesFromPositionsEqualTheScalarQueryBitForBit) {
+  if (!query_stress_kernels_available()) GTEST_SKIP() << "no exact AVX2 kernels in this build or CPU";
+  constexpr int L = kRotationBatchLanesAvx2;
+  constexpr int kTets = 6;
+  const double mu = 3.4e4, lambda = 1.6e5;  // Pa
+  std::mt19937_64 rng(20261123);
+  std::uniform_int_distribution<int> kinds(0, 6);
+  std::uniform_real_distribution<double> coordinate(-0.05, 0.05);
+  int compared = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    // kTets tets over 4 kTets vertices numbered in a random order; the batch takes L of them.
+    std::vector<int> numbers(4 * kTets);
+    for (int v = 0; v < 4 * kTets; ++v) numbers[static_cast<size_t>(v)] = v;
+    std::shuffle(numbers.begin(), numbers.end(), rng);
+    std::vector<TetIndices> mesh_tets(kTets);
+    std::vector<Mat3> rest_shape_inverse(kTets);
+    std::vector<Vec3> x(4 * kTets);
+    std::vector<Quat> warm(kTets);
+    for (int t = 0; t < kTets; ++t) {
+      Mat3 target;
+      make_case(rng, kinds(rng), target, warm[static_cast<size_t>(t)]);
+      const Mat3 rest_shape = 0.02 * (Mat3::Identity() + random_matrix(rng, 0.3));
+      rest_shape_inverse[static_cast<size_t>(t)] = rest_shape.inverse();
+      const Mat3 Ds = target * rest_shape;
+      const Vec3 x0(coordinate(rng), coordinate(rng), coordinate(rng));
+      for (int j = 0; j < 4; ++j) {
+        const int v = numbers[static_cast<size_t>(4 * t + j)];
+        mesh_tets[static_cast<size_t>(t)][static_cast<size_t>(j)] = v;
+        x[static_cast<size_t>(v)] = j == 0 ? x0 : Vec3(x0 + Ds.col(j - 1));
+      }
+    }
+    std::vector<int> order(kTets);
+    for (int t = 0; t < kTets; ++t) order[static_cast<size_t>(t)] = t;
+    std::shuffle(order.begin(), order.end(), rng);
+    const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
+    Quat q[L];
+    Mat3 F[L], R[L], P[L];
+    Mat3 *F_out[L], *R_out[L];
+    for (int l = 0; l < L; ++l) {
+      q[l] = warm[static_cast<size_t>(order[static_cast<size_t>(l)])];
+      F_out[l] = &F[l];
+      R_out[l] = &R[l];
+    }
+    exact_query_stresses_avx2(x.data()->data(), mesh_tets.data(), rest_shape_inverse.data(), order.data(), q, mu,
+                              lambda, cap, kElementRotationTolerance, F_out, R_out, P);
+    for (int l = 0; l < L; ++l) {
+      const auto t = static_cast<size_t>(order[static_cast<size_t>(l)]);
+      const TetIndices& tet = mesh_tets[t];
+      const Vec3& x0 = x[static_cast<size_t>(tet[0])];
+      Mat3 Ds;  // CorotationalFem::deformation_gradient's expressions
+      Ds.col(0) = x[static_cast<size_t>(tet[1])] - x0;
+      Ds.col(1) = x[static_cast<size_t>(tet[2])] - x0;
+      Ds.col(2) = x[static_cast<size_t>(tet[3])] - x0;
+      const Mat3 expected_F = Ds * rest_shape_inverse[t];
+      Quat scalar = warm[t];
+      extract_rotation(expected_F, scalar, cap, kElementRotationTolerance);
+      const Mat3 expected_R = scalar.toRotationMatrix();
+      const double trace = expected_R.cwiseProduct(expected_F).sum() - 3.0;  // first_piola's
+      const Mat3 expected_P = 2.0 * mu * (expected_F - expected_R) + lambda * trace * expected_R;
+#ifdef __FMA__
+      ASSERT_LT((P[l] - expected_P).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + expected_P.cwiseAbs().maxCoeff()));
+      ++compared;
+      continue;
+#endif
+      ASSERT_EQ(std::memcmp(F[l].data(), expected_F.data(), 9 * sizeof(double)), 0)
+          << "trial " << trial << " lane " << l << ":\n" << F[l] << "\nvs\n" << expected_F;
+      ASSERT_EQ(std::memcmp(R[l].data(), expected_R.data(), 9 * sizeof(double)), 0) << "trial " << trial << " lane " << l;
+      ASSERT_EQ(std::memcmp(P[l].data(), expected_P.data(), 9 * sizeof(double)), 0)
+          << "trial " << trial << " lane " << l << ":\n" << P[l] << "\nvs\n" << expected_P;
       ++compared;
     }
   }
