@@ -369,6 +369,9 @@ void World::detect() {
       colliding_.clear();
       spatial_hash_.detect(collision_bodies_, filter_, colliding_);
     }
+    if (settings_.sleep.rest_by_centre_when_supported) {
+      note_supported_bodies(body_view_, colliding_, contact_surface_->held_contacts());
+    }
   }
   report_.colliding_vertices = static_cast<int>(colliding_.size());
 }
