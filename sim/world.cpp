@@ -215,6 +215,11 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
   saved_poses_.resize(slots_.size());
   for (size_t i = 0; i < slots_.size(); ++i) {
     if (!slots_[i]) continue;
+    // A sleeper with frozen energies needs no new copy: the report sets them only while it sleeps,
+    // a body falls asleep only after the report, and every wake clears them, so it has been asleep
+    // and unchanged since a step start at which it was asleep and copied (by induction, its
+    // first). Nothing moves a sleeper (Body::is_immovable), as the energy cache already assumes.
+    if (slots_[i]->is_sleeping() && slots_[i]->sleep.has_frozen_energy) continue;
     saved_positions_[i] = slots_[i]->positions;
     saved_velocities_[i] = slots_[i]->velocities;
     saved_poses_[i] = slots_[i]->pose;
@@ -368,6 +373,9 @@ void World::detect() {
       build_collision_filter();
       colliding_.clear();
       spatial_hash_.detect(collision_bodies_, filter_, colliding_);
+    }
+    if (settings_.sleep.rest_by_centre_when_supported) {
+      note_supported_bodies(body_view_, colliding_, contact_surface_->held_contacts());
     }
   }
   report_.colliding_vertices = static_cast<int>(colliding_.size());

@@ -196,13 +196,14 @@ ContactSettings read_contact(const JsonReader& j) {
 
 // "sleep": bodies at rest sleep (sim/sleep/sleep_settings.h); on in scenes unless disabled.
 SleepSettings read_sleep(const JsonReader& j) {
-  j.expect_keys({"enabled", "speed", "time", "wake_margin", "wake_on_centre_motion"});
+  j.expect_keys({"enabled", "speed", "time", "wake_margin", "wake_on_centre_motion", "rest_by_centre_when_supported"});
   SleepSettings s;
   s.enabled = j.boolean_or("enabled", true);
   s.speed = j.positive_number_or("speed", s.speed);
   s.time = j.positive_number_or("time", s.time);
   s.wake_margin = j.non_negative_number_or("wake_margin", s.wake_margin);
   s.wake_on_centre_motion = j.boolean_or("wake_on_centre_motion", s.wake_on_centre_motion);
+  s.rest_by_centre_when_supported = j.boolean_or("rest_by_centre_when_supported", s.rest_by_centre_when_supported);
   return s;
 }
 

@@ -47,6 +47,12 @@ struct SleepSettings {
   /// from where it was when it last woke its neighbours (or was created). A body turning or
   /// changing shape in place then wakes nobody; it still cannot fall asleep itself.
   bool wake_on_centre_motion = false;
+  /// Session 14, opt-in (docs/experiments.md "Session 14"): false (default), every awake body rests
+  /// while each vertex stays in its rest ball; true, a supported body (SleepState::supported: it is
+  /// clamped or touches something, and everything it touches is asleep, a fixture or clamped) rests
+  /// while its centre of mass stays within the ball's radius of the anchor's, whatever its vertices
+  /// do. Lets the clamped bottom of a stack, which churns under sleepers, fall asleep.
+  bool rest_by_centre_when_supported = false;
 };
 
 /// A deformable body's sleep bookkeeping (kept in Body).
@@ -72,6 +78,10 @@ struct SleepState {
   double frozen_kinetic_energy = 0.0;        ///< J
   double frozen_gravitational_energy = 0.0;  ///< J, relative to the body's initial positions
   Vec3 frozen_energy_gravity = Vec3::Zero(); ///< m/s^2, the world's gravity when they were computed
+  /// Session 14 (rest_by_centre_when_supported): in this step's contacts the body is clamped or
+  /// touches something, and every body it touches is asleep, a fixture (kinematic, not an
+  /// instrument) or clamped (has a fixed vertex). Set by note_supported_bodies.
+  bool supported = false;
 };
 
 }  // namespace pliant

@@ -47,15 +47,33 @@ bool within_rest_distance(const Body& body, const SleepSettings& settings) {
   return true;
 }
 
-// Mass-weighted mean of the positions (lumped masses).
-Vec3 centre_of_mass(const Body& body) {
+// Mass-weighted mean of `x` over the body's lumped masses.
+Vec3 centre_of_mass(const Body& body, const std::vector<Vec3>& x) {
   Vec3 sum = Vec3::Zero();
   double mass = 0.0;
-  for (size_t v = 0; v < body.positions.size(); ++v) {
-    sum += body.masses[v] * body.positions[v];
+  for (size_t v = 0; v < x.size(); ++v) {
+    sum += body.masses[v] * x[v];
     mass += body.masses[v];
   }
   return sum / mass;
+}
+
+Vec3 centre_of_mass(const Body& body) { return centre_of_mass(body, body.positions); }
+
+// rest_by_centre_when_supported: the centre within the rest ball's radius of the anchor's centre.
+bool centre_within_rest_distance(const Body& body, const SleepSettings& settings) {
+  return (centre_of_mass(body) - centre_of_mass(body, body.sleep.rest_anchor)).norm() <= settings.rest_distance();
+}
+
+// Held to the world by at least one fixed vertex.
+bool is_clamped(const Body& body) {
+  return std::any_of(body.fixed.begin(), body.fixed.end(), [](char f) { return f != 0; });
+}
+
+// A partner that does not move on its own: asleep, a fixture, or clamped (awake or not).
+bool is_support(const Body& body) {
+  if (body.is_kinematic()) return !body.instrument;
+  return body.is_sleeping() || is_clamped(body);
 }
 
 // wake_on_centre_motion: whether the centre of mass left the ball around where the body last woke
@@ -113,6 +131,31 @@ int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<Ve
     mark_pair(c.body, c.penetrated_body);
   }
   return marked;
+}
+
+int note_supported_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
+                          std::span<const VertexContact> held) {
+  // Per slot: 1 has a support partner, 2 has a partner that is none (2 wins).
+  std::vector<char> seen(bodies.size(), 0);
+  auto note_pair = [&](int a, int b) {
+    if (a == b || a < 0 || b < 0) return;
+    if (static_cast<size_t>(a) >= bodies.size() || static_cast<size_t>(b) >= bodies.size()) return;
+    const Body* first = bodies[static_cast<size_t>(a)];
+    const Body* second = bodies[static_cast<size_t>(b)];
+    if (first == nullptr || second == nullptr) return;  // a held contact with a removed body
+    seen[static_cast<size_t>(a)] = std::max<char>(seen[static_cast<size_t>(a)], is_support(*second) ? 1 : 2);
+    seen[static_cast<size_t>(b)] = std::max<char>(seen[static_cast<size_t>(b)], is_support(*first) ? 1 : 2);
+  };
+  for (const VertexInTet& c : colliding) note_pair(c.body, c.penetrated_body);
+  for (const VertexContact& c : held) note_pair(c.body, c.penetrated_body);
+  int supported = 0;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    Body* b = bodies[i];
+    if (b == nullptr || b->is_kinematic()) continue;
+    b->sleep.supported = !b->is_sleeping() && seen[i] != 2 && (seen[i] == 1 || is_clamped(*b));
+    if (b->sleep.supported) ++supported;
+  }
+  return supported;
 }
 
 void wake_body(Body& body) {
@@ -189,7 +232,9 @@ int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& 
       continue;
     }
     const bool begun = sleep.rest_anchor.size() == body->positions.size();
-    sleep.resting = begun && within_rest_distance(*body, settings);
+    const bool by_centre = settings.rest_by_centre_when_supported && sleep.supported;
+    sleep.resting = begun && (by_centre ? centre_within_rest_distance(*body, settings)
+                                        : within_rest_distance(*body, settings));
     if (sleep.resting) {
       sleep.rest_time += dt;
     } else {

@@ -7,6 +7,17 @@
 // centre had moved 0.56 mm, median, when a vertex left the 2 mm ball), half of them by fruits just
 // woken by such an exit, so waking on any vertex kept 80-110 of 138 fruits awake; waking on the
 // centre lets the pile sleep (docs/experiments.md "Session 12").
+// Opt-in rest rule (session 14, SleepSettings::rest_by_centre_when_supported): a body supported
+// only by things that do not move on their own (sleepers, fixtures, clamped bodies) rests by its
+// centre of mass instead of by every vertex. In the membrane stack the clamped membrane0 and
+// membrane1 churn against each other under the sleeping membranes 2-8 (surface vertices sliding
+// 5-16 mm within 0.2 s while the centres creep ~0.1 mm: session 13's frames), so the vertex rule
+// never lets them sleep, and membrane1's creep eventually wakes the stack above. With the rule
+// membrane1 (on clamped membrane0, under sleeping membrane2) sleeps by its centre, then membrane0
+// (touching only a sleeper) does. The price: such a body is frozen wherever its vertices are in
+// the churn, so freezing may move a vertex by more than the ball's radius (the vertex rule's
+// promise holds for its centre only). Clamped partners count as support though they are awake:
+// their fixed vertices hold them to the world.
 #pragma once
 
 #include <span>
@@ -45,6 +56,13 @@ int note_instrument_contacts(std::span<Body* const> bodies, const std::vector<Ve
 int wake_touched_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
                         const SleepSettings& settings);
 
+/// Sets SleepState::supported on each awake deformable body (rest_by_centre_when_supported): true
+/// when the body is clamped (a fixed vertex) or has a partner in `colliding` or `held` (the last
+/// step's contacts that still hold a force), and every such partner is asleep, a fixture (kinematic,
+/// not an instrument) or clamped. Self contacts are ignored. Returns the number supported.
+int note_supported_bodies(std::span<Body* const> bodies, const std::vector<VertexInTet>& colliding,
+                          std::span<const VertexContact> held);
+
 /// Wakes one body now (velocities stay zero; it is integrated from the next step on). Its rest
 /// anchor is kept: it rests where it slept until it leaves that ball.
 void wake_body(Body& body);
@@ -52,7 +70,9 @@ void wake_body(Body& body);
 /// After a step of dt (s): checks each awake deformable body against its rest ball
 /// (sleep_settings.h), advancing its rest time or restarting the rest with a new anchor, and puts
 /// bodies to sleep (velocities set to zero) once the rest time reaches settings.time. A body an
-/// instrument touches (note_instrument_contacts) keeps its rest time at zero.
+/// instrument touches (note_instrument_contacts) keeps its rest time at zero. With
+/// settings.rest_by_centre_when_supported a supported body (note_supported_bodies) stays in its
+/// rest ball while its centre of mass stays within the radius of the anchor's centre.
 /// `body_energy` is this step's report per slot; its elastic energy is kept for the reports while
 /// the body sleeps (`has_energy`: whether it was computed). Returns the number of bodies asleep.
 int update_sleep(std::span<Body* const> bodies, double dt, const SleepSettings& settings,

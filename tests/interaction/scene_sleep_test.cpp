@@ -93,5 +93,25 @@ TEST(SceneSleep, WakeOnCentreMotionReachesTheWorldAndABadValueNamesItsPath) {
   }
 }
 
+// sleep.rest_by_centre_when_supported (session 14, opt-in): absent it is false (the old rest rule
+// bit for bit), true reaches the world, and a value that is not a boolean is an error naming the
+// file and its JSON path.
+TEST(SceneSleep, RestByCentreWhenSupportedReachesTheWorldAndABadValueNamesItsPath) {
+  nlohmann::json j = scene_json("paper/membrane_stack.json");
+  if (!j.contains("sleep")) j["sleep"] = nlohmann::json::object();
+  j["sleep"].erase("rest_by_centre_when_supported");
+  EXPECT_FALSE(parse_scene(j, "membrane_stack.json", ".").world.sleep.rest_by_centre_when_supported);
+  j["sleep"]["rest_by_centre_when_supported"] = true;
+  EXPECT_TRUE(parse_scene(j, "membrane_stack.json", ".").world.sleep.rest_by_centre_when_supported);
+  j["sleep"]["rest_by_centre_when_supported"] = 1;
+  try {
+    parse_scene(j, "membrane_stack.json", ".");
+    ADD_FAILURE() << "a number was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/sleep/rest_by_centre_when_supported"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("membrane_stack.json"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace pliant

@@ -679,5 +679,73 @@ TEST(Sleeping, AFixtureRisingIntoAFullyAsleepWorldWakesTheBlockItReaches) {
   EXPECT_FALSE(s.world.body(s.block).is_sleeping());
 }
 
+// sleep.rest_by_centre_when_supported (session 14, opt-in): a clamped slab whose surface vertices
+// churn in place (two top corners pushed apart, each by at least 3 r with equal mass x distance,
+// and back every other step: a vertex leaves the rest ball of radius r at every push, the centre of
+// mass does not move) under
+// a sleeping block is supported and rests by its centre, so it falls asleep after `time` (200
+// steps of 1 ms, the hand count: the first look anchors the rest, each later one adds dt); the
+// vertex rule (the default) never lets it; under an awake block it is not supported and stays
+// awake; asleep, it wakes in the step a moving block touches it.
+TEST(Sleeping, AClampedSlabChurningUnderASleeperRestsByItsCentreOnlyWhenSupported) {
+  const std::vector<VertexInTet> block_on_slab{{.body = 1, .vertex = 0, .penetrated_body = 0, .tet = 0}};
+  for (const bool rule : {false, true}) {
+    for (const bool block_asleep : {true, false}) {
+      WorldSettings settings = sleep_on();
+      settings.sleep.rest_by_centre_when_supported = rule;
+      World world(settings);
+      BodyDef slab_def{.name = "slab", .mesh = make_box_mesh({Vec3(0.2, 0.2, 0.01), 4, 4, 1}),
+                       .material = block_material()};
+      for (int v = 0; v < slab_def.mesh->vertex_count(); ++v) {
+        if (slab_def.mesh->rest_positions()[static_cast<size_t>(v)].z() < -0.0049) slab_def.fixed_vertices.push_back(v);
+      }
+      const BodyId slab_id = world.add_body(slab_def);
+      const BodyId block_id = FloorAndBlock::add_block(world, "block", Vec3(0, 0, 0.0305));
+      Body& slab = world.body(slab_id);
+      Body& block = world.body(block_id);
+      block.sleep.sleeping = block_asleep;
+      // Two top corners on a diagonal, pushed apart with equal mass x distance: the centre of mass
+      // stays where it was.
+      int lo = -1, hi = -1;
+      for (int v = 0; v < slab.vertex_count(); ++v) {
+        const Vec3& x = slab.positions[static_cast<size_t>(v)];
+        if (x.z() > 0.0049 && x.x() < -0.0999 && x.y() < -0.0999) lo = v;
+        if (x.z() > 0.0049 && x.x() > 0.0999 && x.y() > 0.0999) hi = v;
+      }
+      ASSERT_GE(lo, 0);
+      ASSERT_GE(hi, 0);
+      const double m_lo = slab.masses[static_cast<size_t>(lo)], m_hi = slab.masses[static_cast<size_t>(hi)];
+      const double push_lo = 3.0 * settings.sleep.rest_distance() * std::max(1.0, m_hi / m_lo);
+      const double push_hi = push_lo * m_lo / m_hi;
+      ASSERT_GE(std::min(push_lo, push_hi), 3.0 * settings.sleep.rest_distance() * (1 - 1e-12));
+      std::optional<int> slept_at;
+      for (int step = 1; step <= 400 && !slept_at; ++step) {
+        const double sign = step % 2 == 1 ? 1.0 : -1.0;  // out, back, out, ...
+        slab.positions[static_cast<size_t>(lo)].x() -= sign * push_lo;
+        slab.positions[static_cast<size_t>(hi)].x() += sign * push_hi;
+        const int supported = note_supported_bodies(world.bodies(), block_on_slab, {});
+        EXPECT_EQ(slab.sleep.supported, block_asleep) << "step " << step;
+        EXPECT_EQ(supported, 1) << "the slab under the sleeper, or the awake block on the clamped slab";
+        update_sleep(world.bodies(), kDt, world.settings().sleep, {}, false);
+        block.sleep.sleeping = block_asleep;  // update_sleep runs the block's rule too: keep it as set
+        if (slab.is_sleeping()) slept_at = step;
+      }
+      SCOPED_TRACE(std::string("rule ") + (rule ? "on" : "off") + ", block " + (block_asleep ? "asleep" : "awake"));
+      if (rule && block_asleep) {
+        ASSERT_TRUE(slept_at.has_value());
+        EXPECT_GE(*slept_at, 201);
+        EXPECT_LE(*slept_at, 202);  // 200 sums of 1 ms may round below 0.2 s
+        // A block that moves (it left its rest ball) and touches the slab wakes it in that step.
+        block.sleep.sleeping = false;
+        block.sleep.resting = false;
+        EXPECT_EQ(wake_touched_bodies(world.bodies(), block_on_slab, world.settings().sleep), 1);
+        EXPECT_FALSE(slab.is_sleeping());
+      } else {
+        EXPECT_FALSE(slept_at.has_value()) << "slept at step " << slept_at.value_or(-1);
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace pliant
