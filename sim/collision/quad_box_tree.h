@@ -15,8 +15,20 @@
 // (false for NaN) decide, so the list of leaves is the binary traversal's, in its order, bit for
 // bit. Needs AVX (available()); SurfaceBvh uses it only with the AVX segment-packet kernel, and
 // its scalar fan query keeps the binary traversal.
+//
+// Float boxes, exact decisions (session 14). The boxes a query reads are floats rounded outward
+// (min down, max up): a node is 128 B, two cache lines instead of four, which at 100k tets is what
+// the traversal misses on. One 8-lane float comparison per bound gives two masks: "may meet"
+// (outward float box against the query rounded outward: true whenever the double boxes meet) and
+// "surely meets" (the same float box against the query shrunk past its own rounding: true only
+// when the double boxes meet). A child that may but not surely meet (a face within a float ulp of
+// the query's, e.g. a point query on the surface) is re-tested on its double box (exact_, read
+// only then). So every child pushed is one the double test pushes: the same leaves, same order.
 #pragma once
 
+#include <array>
+#include <cmath>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -43,14 +55,36 @@ class QuadBoxTree {
   /// Number of leaves of the binary tree (the size `out` of leaves_meeting needs).
   int leaf_count() const { return leaf_count_; }
 
+  /// Four closed boxes (min[axis][k], max[axis][k]) against `query` by the float test with its
+  /// exact re-test, as leaves_meeting decides a node's children; bit k set iff box k meets query
+  /// by the double comparisons (every box used). For tests. Only where available().
+  static int children_meeting(const double (&min)[3][4], const double (&max)[3][4], const Aabb& query);
+  /// Largest float <= d (-inf below -FLT_MAX; NaN stays NaN).
+  static float float_below(double d) {
+    float f = static_cast<float>(d);
+    if (static_cast<double>(f) > d) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+    return f;
+  }
+  /// Smallest float >= d (+inf above FLT_MAX; NaN stays NaN).
+  static float float_above(double d) {
+    float f = static_cast<float>(d);
+    if (static_cast<double>(f) < d) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    return f;
+  }
+
  private:
   /// Up to four children; child[k] >= 0 is a QuadBoxTree node, ~child[k] a binary leaf.
+  /// What a traversal reads: 128 B, two cache lines.
   struct Node {
-    alignas(32) double min[3][4];  ///< children's boxes; empty slots min +inf
-    alignas(32) double max[3][4];  ///< empty slots max -inf
+    alignas(64) float min[3][4];  ///< children's boxes rounded down; empty slots +inf
+    float max[3][4];              ///< rounded up; empty slots -inf
     int child[4] = {0, 0, 0, 0};
-    int source[4] = {-1, -1, -1, -1};  ///< binary node of each child (-1: empty slot)
-    int valid = 0;                     ///< bit k: slot k is used
+    int valid = 0;  ///< bit k: slot k is used
+  };
+  /// The children's double boxes, read only when the float test is not conclusive.
+  struct ExactBoxes {
+    alignas(32) double min[3][4];  ///< empty slots +inf
+    double max[3][4];              ///< empty slots -inf
   };
   static constexpr int kMaxStack = 256;
 
@@ -60,6 +94,8 @@ class QuadBoxTree {
   int leaves_meeting_avx(const Aabb& query, int* out) const;
 
   std::vector<Node> nodes_;  ///< node 0 has one child, the binary root (so its box is tested too)
+  std::vector<ExactBoxes> exact_;             ///< per node
+  std::vector<std::array<int, 4>> sources_;  ///< per node: binary node of each child (-1: empty slot)
   int leaf_count_ = 0;
 };
 
@@ -67,6 +103,8 @@ template <class BinaryNodes>
 int QuadBoxTree::add_node(const BinaryNodes& nodes, const int* slots, int used) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
+  exact_.emplace_back();
+  sources_.push_back({-1, -1, -1, -1});
   for (int k = 0; k < used; ++k) {
     const int b = slots[k];
     const auto& binary = nodes[static_cast<size_t>(b)];
@@ -87,8 +125,8 @@ int QuadBoxTree::add_node(const BinaryNodes& nodes, const int* slots, int used) 
     }
     Node& node = nodes_[static_cast<size_t>(index)];  // add_node may have moved the vector
     node.child[k] = child;
-    node.source[k] = b;
     node.valid |= 1 << k;
+    sources_[static_cast<size_t>(index)][static_cast<size_t>(k)] = b;
   }
   return index;
 }
@@ -96,6 +134,8 @@ int QuadBoxTree::add_node(const BinaryNodes& nodes, const int* slots, int used) 
 template <class BinaryNodes>
 void QuadBoxTree::build(const BinaryNodes& nodes) {
   nodes_.clear();
+  exact_.clear();
+  sources_.clear();
   leaf_count_ = 0;
   for (const auto& n : nodes) leaf_count_ += n.count > 0 ? 1 : 0;
   if (nodes.empty()) return;
@@ -106,12 +146,17 @@ void QuadBoxTree::build(const BinaryNodes& nodes) {
 
 template <class BinaryNodes>
 void QuadBoxTree::refresh_boxes(const BinaryNodes& nodes) {
-  for (Node& node : nodes_) {
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    Node& node = nodes_[i];
+    ExactBoxes& exact = exact_[i];
     for (int k = 0; k < 4; ++k) {
-      const Aabb box = node.source[k] >= 0 ? nodes[static_cast<size_t>(node.source[k])].box : Aabb{};
+      const int source = sources_[i][static_cast<size_t>(k)];
+      const Aabb box = source >= 0 ? nodes[static_cast<size_t>(source)].box : Aabb{};
       for (int a = 0; a < 3; ++a) {
-        node.min[a][k] = box.min[a];
-        node.max[a][k] = box.max[a];
+        exact.min[a][k] = box.min[a];
+        exact.max[a][k] = box.max[a];
+        node.min[a][k] = float_below(box.min[a]);
+        node.max[a][k] = float_above(box.max[a]);
       }
     }
   }
