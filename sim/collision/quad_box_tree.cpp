@@ -56,8 +56,10 @@ PLIANT_AVX FloatQuery float_query(const Aabb& query) {
   for (int a = 0; a < 3; ++a) {
     const float may_lo = QuadBoxTree::float_below(query.min[a]);
     const float may_hi = QuadBoxTree::float_above(query.max[a]);
-    float sure_lo = std::nextafter(QuadBoxTree::float_above(query.min[a]), kInf);
-    float sure_hi = std::nextafter(QuadBoxTree::float_below(query.max[a]), -kInf);
+    const float above_lo = QuadBoxTree::float_above(query.min[a]);
+    const float below_hi = QuadBoxTree::float_below(query.max[a]);
+    float sure_lo = above_lo < kInf ? QuadBoxTree::float_step_up(above_lo) : kNaN;
+    float sure_hi = below_hi > -kInf ? QuadBoxTree::float_step_down(below_hi) : kNaN;
     if (std::isinf(sure_lo)) sure_lo = kNaN;
     if (std::isinf(sure_hi)) sure_hi = kNaN;
     q.lo[a] = _mm256_setr_ps(may_lo, may_lo, may_lo, may_lo, sure_lo, sure_lo, sure_lo, sure_lo);

@@ -27,7 +27,9 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <vector>
@@ -61,15 +63,25 @@ class QuadBoxTree {
   static int children_meeting(const double (&min)[3][4], const double (&max)[3][4], const Aabb& query);
   /// Largest float <= d (-inf below -FLT_MAX; NaN stays NaN).
   static float float_below(double d) {
-    float f = static_cast<float>(d);
-    if (static_cast<double>(f) > d) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-    return f;
+    const float f = static_cast<float>(d);
+    return static_cast<double>(f) > d ? float_step_down(f) : f;
   }
   /// Smallest float >= d (+inf above FLT_MAX; NaN stays NaN).
   static float float_above(double d) {
-    float f = static_cast<float>(d);
-    if (static_cast<double>(f) < d) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-    return f;
+    const float f = static_cast<float>(d);
+    return static_cast<double>(f) < d ? float_step_up(f) : f;
+  }
+  /// The next float below f (f not NaN, not -inf): std::nextafter's value without its library call.
+  static float float_step_down(float f) {
+    const auto b = std::bit_cast<std::uint32_t>(f);
+    if (f == 0.0f) return std::bit_cast<float>(std::uint32_t{0x80000001u});  // -denorm_min
+    return std::bit_cast<float>((b >> 31) != 0 ? b + 1 : b - 1);
+  }
+  /// The next float above f (f not NaN, not +inf).
+  static float float_step_up(float f) {
+    const auto b = std::bit_cast<std::uint32_t>(f);
+    if (f == 0.0f) return std::bit_cast<float>(std::uint32_t{1u});  // denorm_min
+    return std::bit_cast<float>((b >> 31) != 0 ? b - 1 : b + 1);
   }
 
  private:

@@ -169,6 +169,40 @@ TEST(QuadBoxTree, FloatBoxTestDecidesAsTheDoubleTest) {
   EXPECT_GT(met, cases / 4);
 }
 
+// The outward roundings are the nearest floats on their side: float_below(d) <= d < the next float
+// (std::nextafter), float_above symmetrically, for doubles near floats, zeros, denormals and
+// values beyond the float range.
+TEST(QuadBoxTree, OutwardRoundingIsTheNearestFloatOnItsSide) {
+  const testing::ScopedFpTrapsOff traps_off;  // values beyond the float range on purpose
+  constexpr float kInfF = std::numeric_limits<float>::infinity();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<double> values = {0.0, -0.0, 1e-320, -1e-320, 1e-46, -1e-46, 1e300, -1e300,
+                                static_cast<double>(FLT_MAX), -static_cast<double>(FLT_MAX),
+                                std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  for (int i = 0; i < 100000; ++i) {
+    const double d = unit(rng) * std::pow(2.0, static_cast<int>(rng() % 80) - 40);
+    const float f = static_cast<float>(d);
+    values.insert(values.end(), {d, static_cast<double>(f), std::nextafter(static_cast<double>(f), 1e300),
+                                 std::nextafter(static_cast<double>(f), -1e300)});
+  }
+  for (const double d : values) {
+    const float below = QuadBoxTree::float_below(d), above = QuadBoxTree::float_above(d);
+    ASSERT_LE(static_cast<double>(below), d) << d;
+    ASSERT_GE(static_cast<double>(above), d) << d;
+    if (std::isfinite(d)) {  // an infinite d is its own rounding
+      ASSERT_GT(static_cast<double>(std::nextafter(below, kInfF)), d) << d;
+      ASSERT_LT(static_cast<double>(std::nextafter(above, -kInfF)), d) << d;
+    }
+    if (below < kInfF && below > -kInfF) {
+      ASSERT_EQ(QuadBoxTree::float_step_up(below), std::nextafter(below, kInfF));
+    }
+    if (above < kInfF && above > -kInfF) {
+      ASSERT_EQ(QuadBoxTree::float_step_down(above), std::nextafter(above, -kInfF));
+    }
+  }
+}
+
 TEST(QuadBoxTree, EmptySurfaceFindsNothing) {
   QuadBoxTree tree;
   struct BinaryNode {
