@@ -15,22 +15,8 @@
 // (false for NaN) decide, so the list of leaves is the binary traversal's, in its order, bit for
 // bit. Needs AVX (available()); SurfaceBvh uses it only with the AVX segment-packet kernel, and
 // its scalar fan query keeps the binary traversal.
-//
-// Float boxes, exact decisions (session 14). The boxes a query reads are floats rounded outward
-// (min down, max up): a node is 128 B, two cache lines instead of four, which at 100k tets is what
-// the traversal misses on. One 8-lane float comparison per bound gives two masks: "may meet"
-// (outward float box against the query rounded outward: true whenever the double boxes meet) and
-// "surely meets" (the same float box against the query shrunk past its own rounding: true only
-// when the double boxes meet). A child that may but not surely meet (a face within a float ulp of
-// the query's, e.g. a point query on the surface) is re-tested on its double box (exact_, read
-// only then). So every child pushed is one the double test pushes: the same leaves, same order.
 #pragma once
 
-#include <array>
-#include <bit>
-#include <cmath>
-#include <cstdint>
-#include <limits>
 #include <span>
 #include <vector>
 
@@ -57,46 +43,14 @@ class QuadBoxTree {
   /// Number of leaves of the binary tree (the size `out` of leaves_meeting needs).
   int leaf_count() const { return leaf_count_; }
 
-  /// Four closed boxes (min[axis][k], max[axis][k]) against `query` by the float test with its
-  /// exact re-test, as leaves_meeting decides a node's children; bit k set iff box k meets query
-  /// by the double comparisons (every box used). For tests. Only where available().
-  static int children_meeting(const double (&min)[3][4], const double (&max)[3][4], const Aabb& query);
-  /// Largest float <= d (-inf below -FLT_MAX; NaN stays NaN).
-  static float float_below(double d) {
-    const float f = static_cast<float>(d);
-    return static_cast<double>(f) > d ? float_step_down(f) : f;
-  }
-  /// Smallest float >= d (+inf above FLT_MAX; NaN stays NaN).
-  static float float_above(double d) {
-    const float f = static_cast<float>(d);
-    return static_cast<double>(f) < d ? float_step_up(f) : f;
-  }
-  /// The next float below f (f not NaN, not -inf): std::nextafter's value without its library call.
-  static float float_step_down(float f) {
-    const auto b = std::bit_cast<std::uint32_t>(f);
-    if (f == 0.0f) return std::bit_cast<float>(std::uint32_t{0x80000001u});  // -denorm_min
-    return std::bit_cast<float>((b >> 31) != 0 ? b + 1 : b - 1);
-  }
-  /// The next float above f (f not NaN, not +inf).
-  static float float_step_up(float f) {
-    const auto b = std::bit_cast<std::uint32_t>(f);
-    if (f == 0.0f) return std::bit_cast<float>(std::uint32_t{1u});  // denorm_min
-    return std::bit_cast<float>((b >> 31) != 0 ? b - 1 : b + 1);
-  }
-
  private:
   /// Up to four children; child[k] >= 0 is a QuadBoxTree node, ~child[k] a binary leaf.
-  /// What a traversal reads: 128 B, two cache lines.
   struct Node {
-    alignas(64) float min[3][4];  ///< children's boxes rounded down; empty slots +inf
-    float max[3][4];              ///< rounded up; empty slots -inf
+    alignas(32) double min[3][4];  ///< children's boxes; empty slots min +inf
+    alignas(32) double max[3][4];  ///< empty slots max -inf
     int child[4] = {0, 0, 0, 0};
-    int valid = 0;  ///< bit k: slot k is used
-  };
-  /// The children's double boxes, read only when the float test is not conclusive.
-  struct ExactBoxes {
-    alignas(32) double min[3][4];  ///< empty slots +inf
-    double max[3][4];              ///< empty slots -inf
+    int source[4] = {-1, -1, -1, -1};  ///< binary node of each child (-1: empty slot)
+    int valid = 0;                     ///< bit k: slot k is used
   };
   static constexpr int kMaxStack = 256;
 
@@ -106,8 +60,6 @@ class QuadBoxTree {
   int leaves_meeting_avx(const Aabb& query, int* out) const;
 
   std::vector<Node> nodes_;  ///< node 0 has one child, the binary root (so its box is tested too)
-  std::vector<ExactBoxes> exact_;             ///< per node
-  std::vector<std::array<int, 4>> sources_;  ///< per node: binary node of each child (-1: empty slot)
   int leaf_count_ = 0;
 };
 
@@ -115,8 +67,6 @@ template <class BinaryNodes>
 int QuadBoxTree::add_node(const BinaryNodes& nodes, const int* slots, int used) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
-  exact_.emplace_back();
-  sources_.push_back({-1, -1, -1, -1});
   for (int k = 0; k < used; ++k) {
     const int b = slots[k];
     const auto& binary = nodes[static_cast<size_t>(b)];
@@ -137,8 +87,8 @@ int QuadBoxTree::add_node(const BinaryNodes& nodes, const int* slots, int used) 
     }
     Node& node = nodes_[static_cast<size_t>(index)];  // add_node may have moved the vector
     node.child[k] = child;
+    node.source[k] = b;
     node.valid |= 1 << k;
-    sources_[static_cast<size_t>(index)][static_cast<size_t>(k)] = b;
   }
   return index;
 }
@@ -146,8 +96,6 @@ int QuadBoxTree::add_node(const BinaryNodes& nodes, const int* slots, int used) 
 template <class BinaryNodes>
 void QuadBoxTree::build(const BinaryNodes& nodes) {
   nodes_.clear();
-  exact_.clear();
-  sources_.clear();
   leaf_count_ = 0;
   for (const auto& n : nodes) leaf_count_ += n.count > 0 ? 1 : 0;
   if (nodes.empty()) return;
@@ -158,17 +106,12 @@ void QuadBoxTree::build(const BinaryNodes& nodes) {
 
 template <class BinaryNodes>
 void QuadBoxTree::refresh_boxes(const BinaryNodes& nodes) {
-  for (size_t i = 0; i < nodes_.size(); ++i) {
-    Node& node = nodes_[i];
-    ExactBoxes& exact = exact_[i];
+  for (Node& node : nodes_) {
     for (int k = 0; k < 4; ++k) {
-      const int source = sources_[i][static_cast<size_t>(k)];
-      const Aabb box = source >= 0 ? nodes[static_cast<size_t>(source)].box : Aabb{};
+      const Aabb box = node.source[k] >= 0 ? nodes[static_cast<size_t>(node.source[k])].box : Aabb{};
       for (int a = 0; a < 3; ++a) {
-        exact.min[a][k] = box.min[a];
-        exact.max[a][k] = box.max[a];
-        node.min[a][k] = float_below(box.min[a]);
-        node.max[a][k] = float_above(box.max[a]);
+        node.min[a][k] = box.min[a];
+        node.max[a][k] = box.max[a];
       }
     }
   }
