@@ -14,7 +14,9 @@ namespace {
 // cannot overflow an int (they land in the outermost cell instead).
 int cell_coordinate(double x, double inv_l) {
   const double c = std::floor(x * inv_l);
-  return static_cast<int>(std::clamp(c, -1.0e9, 1.0e9));
+  // max(lo, min(c, hi)) is std::clamp for every number and maps NaN to lo (std::clamp returns NaN,
+  // and casting NaN to int is undefined): a non-finite vertex gets a defined, far-away cell.
+  return static_cast<int>(std::max(-1.0e9, std::min(c, 1.0e9)));
 }
 
 double min_coefficient(const Vec4& b) { return b.minCoeff(); }
@@ -105,6 +107,9 @@ long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
   // A bitmap of more than 8 bits per inserted vertex would cost more to clear than its look-ups:
   // none then (a body much larger than its share of the vertices), and no tet is skipped.
   occupied_dims_[0] = occupied_dims_[1] = occupied_dims_[2] = 0;
+  // No cell at all: b's bounds are empty (every vertex non-finite: Aabb::extend drops NaN), so no
+  // partner vertex can lie in one of its tets. (A negative count cast to size_t was std::bad_alloc.)
+  if (!(cells >= 1.0)) return 0;
   if (cells > std::max(4096.0, 8.0 * static_cast<double>(hashed_.size()))) return -1;
   for (int k = 0; k < 3; ++k) occupied_dims_[k] = hi[k] - occupied_origin_[k] + 1;
   occupied_.assign((static_cast<size_t>(cells) + 63) / 64, 0);

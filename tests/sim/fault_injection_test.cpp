@@ -5,6 +5,7 @@
 // with contact against a kinematic floor. A bad dt is refused without touching the state.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -151,6 +152,51 @@ TEST_P(FaultInjection, BadTimeStepIsRefusedWithoutTouchingTheState) {
     EXPECT_TRUE(bit_identical(positions_of(*s.world), positions)) << dt;
   }
   EXPECT_EQ(s.world->step(kDt).fault, StepFault::none);
+}
+
+// Two deformable blocks in contact (the lower one on the floor): a NaN force on the upper one puts
+// non-finite positions into detection before the report can see them. The spatial hash once sized
+// its occupancy bitmap from such bounds (a negative cell count cast to size_t: std::bad_alloc out of
+// World::step). Now the step stops before detection, reports the fault (saying it arose in the
+// integration) and restores the state bit for bit, for a NaN and for an infinite force, and goes
+// on once the force is removed.
+TEST_P(FaultInjection, NonFiniteForceOnABodyTouchingAnotherDeformableBodyIsReportedAndRestored) {
+  Scenario s = make_scenario(GetParam());
+  BodyDef upper;
+  upper.name = "upper";
+  upper.mesh = make_box_mesh({Vec3(0.03, 0.03, 0.02), 3, 3, 2});
+  upper.material.young_modulus = 2e4;
+  upper.material.mass_damping = 1.0;
+  upper.model = GetParam();
+  upper.pose.translation = Vec3(0, 0, 0.0315);  // 0.5 mm above the lower block's top face
+  upper.initial_velocity = Vec3(0, 0, -0.5);
+  const BodyId upper_id = s.world->add_body(upper);
+  int touching = 0;
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(s.world->step(kDt).fault, StepFault::none);
+    touching += s.world->last_report().colliding_vertices > 0 ? 1 : 0;
+  }
+  ASSERT_GT(touching, 0);
+  Body& body = s.world->body(upper_id);
+  for (double bad : {kNaN, std::numeric_limits<double>::infinity()}) {
+    const auto positions = positions_of(*s.world);
+    const auto velocities = velocities_of(*s.world);
+    const long steps = s.world->step_count();
+    {
+      testing::ScopedFpTrapsOff traps_off;  // the non-finite force is on purpose
+      for (int v = 0; v < body.vertex_count(); v += 3) body.applied_forces[static_cast<size_t>(v)] = Vec3(bad, 0.0, bad);
+      const StepReport& r = s.world->step(kDt);
+      EXPECT_EQ(r.fault, StepFault::non_finite) << bad;
+      EXPECT_FALSE(r.all_finite) << bad;
+      // Said where it arose: the integration (the contact stages did not run on it).
+      EXPECT_NE(r.fault_message.find("integration"), std::string::npos) << r.fault_message;
+    }
+    EXPECT_TRUE(bit_identical(positions_of(*s.world), positions)) << bad;
+    EXPECT_TRUE(bit_identical(velocities_of(*s.world), velocities)) << bad;
+    EXPECT_EQ(s.world->step_count(), steps);
+    std::fill(body.applied_forces.begin(), body.applied_forces.end(), Vec3::Zero());
+    for (int i = 0; i < 5; ++i) ASSERT_EQ(s.world->step(kDt).fault, StepFault::none) << bad;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, FaultInjection,

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <new>
 #include <numbers>
 #include <random>
@@ -20,6 +21,7 @@
 #include "sim/collision/tet_barycentric.h"
 #include "sim/mesh/box_mesh.h"
 #include "sim/mesh/sphere_mesh.h"
+#include "support/fp_traps.h"
 
 namespace pliant {
 namespace {
@@ -252,6 +254,48 @@ TEST(SpatialHash, PileSkipsTetsWithoutPartnerVerticesAndMatchesBruteForce) {
   }
   EXPECT_GT(total, 100);        // the balls really overlap (168 found)
   EXPECT_GT(skipped, visited);  // and most tets were skipped, exactly
+}
+
+// A body that integrated to NaN or infinity must not take the hash down: the occupancy bitmap was
+// sized from its bounds (a NaN cell coordinate, then a negative cell count cast to size_t:
+// std::bad_alloc). Non-finite vertices are found in no tet and their tets contain nothing; every
+// finite pair is still found, as brute force finds them. (World::step also stops a non-finite step
+// before detection; this is the hash on its own, as a library user may call it.)
+TEST(SpatialHash, NonFiniteVerticesAreNotFatalAndFinitePairsAreStillFound) {
+  const auto ball = make_sphere_mesh({0.015, 40, 2});
+  const double inf = std::numeric_limits<double>::infinity();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  testing::ScopedFpTrapsOff traps_off;  // the non-finite vertices are on purpose (here and in brute force)
+  SpatialHash hash;
+  for (const Vec3& bad : {Vec3(nan, 0, 0), Vec3(0, 0, inf), Vec3(-inf, nan, inf), Vec3(1e300, 0, 0)}) {
+    // One vertex (the first, the last, one in the middle), every third vertex, or every vertex (what
+    // an implicit step with one NaN force gives) of the second ball.
+    for (int where = 0; where < 5; ++where) {
+      // The third ball overlaps the first, so the first's vertices are hashed and are partners of
+      // the second (the case that reached the bitmap with the second's empty bounds).
+      std::vector<std::vector<Vec3>> x = {posed(*ball, Quat::Identity(), Vec3::Zero()),
+                                          posed(*ball, Quat::Identity(), Vec3(0.022, 0.003, 0.0)),
+                                          posed(*ball, Quat::Identity(), Vec3(-0.022, 0.0, 0.003))};
+      const int n = ball->vertex_count();
+      const int first = where == 0 ? 0 : where == 1 ? n - 1 : where == 2 ? n / 2 : 0;
+      const int stride = where == 3 ? 3 : where == 4 ? 1 : n;
+      for (int v = first; v < n; v += stride) x[1][static_cast<size_t>(v)] = bad;
+      std::vector<CollisionBody> bodies(x.size());
+      for (size_t b = 0; b < x.size(); ++b) {
+        bodies[b].mesh = ball.get();
+        bodies[b].positions = x[b];
+      }
+      const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+      std::vector<VertexInTet> found;
+      ASSERT_NO_THROW(hash.detect(bodies, filter, found)) << bad.transpose() << " case " << where;
+      const auto oracle = brute_force(bodies, filter);
+      SCOPED_TRACE(where);
+      expect_same(found, oracle, bodies);
+      if (where < 3) {
+        EXPECT_GT(oracle.size(), 5u);  // the balls overlap by 8 mm (10 pairs)
+      }
+    }
+  }
 }
 
 TEST(SpatialHash, SelfCollisionOfFoldedBarsMatchesBruteForce) {
