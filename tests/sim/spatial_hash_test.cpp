@@ -80,6 +80,16 @@ std::vector<Vec3> posed(const TetMesh& mesh, const Quat& r, const Vec3& t) {
 
 // Folds a bar along x onto itself: the part x > 0 turns about the z axis by up to `angle` (rad)
 // over a hinge of width w, so the far end lies across the near end.
+// One collision body per position set, all of the same mesh (the positions are viewed, not copied).
+std::vector<CollisionBody> bodies_of(const TetMesh& mesh, const std::vector<std::vector<Vec3>>& x) {
+  std::vector<CollisionBody> bodies(x.size());
+  for (size_t b = 0; b < x.size(); ++b) {
+    bodies[b].mesh = &mesh;
+    bodies[b].positions = x[b];
+  }
+  return bodies;
+}
+
 std::vector<Vec3> folded(const TetMesh& mesh, double angle, double w) {
   std::vector<Vec3> x;
   for (const Vec3& p : mesh.rest_positions()) {
@@ -237,11 +247,7 @@ TEST(SpatialHash, PileSkipsTetsWithoutPartnerVerticesAndMatchesBruteForce) {
         }
       }
     }
-    std::vector<CollisionBody> bodies(x.size());
-    for (size_t b = 0; b < x.size(); ++b) {
-      bodies[b].mesh = ball.get();
-      bodies[b].positions = x[b];
-    }
+    const std::vector<CollisionBody> bodies = bodies_of(*ball, x);
     const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
     std::vector<VertexInTet> found;
     hash.detect(bodies, filter, found);
@@ -280,11 +286,7 @@ TEST(SpatialHash, NonFiniteVerticesAreNotFatalAndFinitePairsAreStillFound) {
       const int first = where == 0 ? 0 : where == 1 ? n - 1 : where == 2 ? n / 2 : 0;
       const int stride = where == 3 ? 3 : where == 4 ? 1 : n;
       for (int v = first; v < n; v += stride) x[1][static_cast<size_t>(v)] = bad;
-      std::vector<CollisionBody> bodies(x.size());
-      for (size_t b = 0; b < x.size(); ++b) {
-        bodies[b].mesh = ball.get();
-        bodies[b].positions = x[b];
-      }
+      const std::vector<CollisionBody> bodies = bodies_of(*ball, x);
       const CollisionFilter filter = CollisionFilter::from_bodies(bodies);
       std::vector<VertexInTet> found;
       ASSERT_NO_THROW(hash.detect(bodies, filter, found)) << bad.transpose() << " case " << where;
