@@ -43,4 +43,13 @@ __attribute__((target("avx2"))) inline void store_entries(const __m256d e[9], do
   _mm_storeh_pd(m3 + 8, hi);
 }
 
+/// The sum of the nine entries of each lane's column-major 3x3 matrix in Eigen 3.4's order for
+/// M.sum() in the portable build (redux with SSE2 packets of two: ((p_0 + p_1) + (p_2 + p_3)) over the
+/// packets p_j = (e_2j, e_2j+1), then lane 0 + lane 1, then + e_8), so the same bits per lane.
+__attribute__((target("avx2"))) inline __m256d entry_sum9(const __m256d e[9]) {
+  const __m256d even = _mm256_add_pd(_mm256_add_pd(e[0], e[2]), _mm256_add_pd(e[4], e[6]));
+  const __m256d odd = _mm256_add_pd(_mm256_add_pd(e[1], e[3]), _mm256_add_pd(e[5], e[7]));
+  return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
+}
+
 }  // namespace pliant::matrix_lanes

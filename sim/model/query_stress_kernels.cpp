@@ -63,19 +63,6 @@ PLIANT_AVX2_ONLY void first_piola_stresses_from_rotations_avx2(const Mat3* R, co
   for (size_t l = 0; l < count; ++l) first_piola_stress(R[l], F[l], two_mu, lambda, P[l]);
 }
 
-namespace {
-
-/// A 9-entry sum of column-major entries in Eigen's SSE2 redux order (R.cwiseProduct(F).sum()):
-/// ((e0 + e2) + (e4 + e6)) + ((e1 + e3) + (e5 + e7)), then + e8 (tet_gradient_kernels.cpp has the
-/// same for the full pass; kept apart, see the header's design note).
-PLIANT_AVX2_ONLY inline __m256d entry_sum9(const __m256d e[9]) {
-  const __m256d even = _mm256_add_pd(_mm256_add_pd(e[0], e[2]), _mm256_add_pd(e[4], e[6]));
-  const __m256d odd = _mm256_add_pd(_mm256_add_pd(e[1], e[3]), _mm256_add_pd(e[5], e[7]));
-  return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
-}
-
-}  // namespace
-
 // "flatten" inlines the extraction's lane templates here, so they are compiled for AVX2 (as in
 // rotation_batch_avx2.cpp).
 PLIANT_AVX2_ONLY __attribute__((flatten)) void exact_query_stresses_avx2(
@@ -134,7 +121,7 @@ PLIANT_AVX2_ONLY __attribute__((flatten)) void exact_query_stresses_avx2(
   // P = (2 mu) (F - R) + (lambda tr) R, tr = sum of R .* F - 3 (first_piola_stress's operations).
   __m256d e[9];
   for (int k = 0; k < 9; ++k) e[k] = _mm256_mul_pd(r[k], f[k]);
-  const __m256d trace = _mm256_sub_pd(entry_sum9(e), _mm256_set1_pd(3.0));
+  const __m256d trace = _mm256_sub_pd(matrix_lanes::entry_sum9(e), _mm256_set1_pd(3.0));
   const __m256d two_mu = _mm256_set1_pd(2.0 * mu), lambda_trace = _mm256_mul_pd(_mm256_set1_pd(lambda), trace);
   __m256d p[9];
   for (int k = 0; k < 9; ++k) {

@@ -36,6 +36,7 @@ PLIANT_AVX2_ONLY inline void product_transposed(__m256d a0, __m256d a1, __m256d 
 }
 
 using matrix_lanes::load_entries;
+using matrix_lanes::entry_sum9;
 using matrix_lanes::store_entries;
 
 /// R = q.toRotationMatrix() for four quaternions (Eigen 3.4's expressions, lane by lane), as nine
@@ -63,15 +64,6 @@ PLIANT_AVX2_ONLY inline void rotation_entries(const Quat& q0, const Quat& q1, co
   R[2] = _mm256_sub_pd(txz, twy);                      // (2, 0)
   R[5] = _mm256_add_pd(tyz, twx);                      // (2, 1)
   R[8] = _mm256_sub_pd(one, _mm256_add_pd(txx, tyy));  // (2, 2)
-}
-
-/// Eigen 3.4's sum of the nine entries of a 3x3 matrix in the portable build (redux with SSE2
-/// packets of two: ((p_0 + p_1) + (p_2 + p_3)) over the packets p_j = (e_2j, e_2j+1), then lane 0 +
-/// lane 1, then + e_8), lane by lane.
-PLIANT_AVX2_ONLY inline __m256d eigen_sum9(const __m256d e[9]) {
-  const __m256d even = _mm256_add_pd(_mm256_add_pd(e[0], e[2]), _mm256_add_pd(e[4], e[6]));
-  const __m256d odd = _mm256_add_pd(_mm256_add_pd(e[1], e[3]), _mm256_add_pd(e[5], e[7]));
-  return _mm256_add_pd(_mm256_add_pd(even, odd), e[8]);
 }
 
 /// C = A B^T lane by lane in Eigen's order (product_column's): C(r, j) = sum_k A(r, k) B(j, k), rows
@@ -107,7 +99,7 @@ PLIANT_AVX2_ONLY void element_forces_lanes(const Quat* q, const Mat3* F, const M
   load_entries(F[0].data(), F[1].data(), F[2].data(), F[3].data(), f);
   // trace = R.cwiseProduct(F).sum() - 3
   for (int k = 0; k < 9; ++k) e[k] = _mm256_mul_pd(R[k], f[k]);
-  const __m256d trace = _mm256_sub_pd(eigen_sum9(e), _mm256_set1_pd(3.0));
+  const __m256d trace = _mm256_sub_pd(entry_sum9(e), _mm256_set1_pd(3.0));
   // F - R, its squared norm, the energy V (mu |F - R|^2 + ((0.5 lambda) trace) trace)
   __m256d fmr[9];
   for (int k = 0; k < 9; ++k) {
@@ -116,7 +108,7 @@ PLIANT_AVX2_ONLY void element_forces_lanes(const Quat* q, const Mat3* F, const M
   }
   const __m256d v = _mm256_loadu_pd(volume);
   const __m256d half_lambda_trace = _mm256_mul_pd(_mm256_set1_pd(0.5 * lambda), trace);
-  _mm256_storeu_pd(energy, _mm256_mul_pd(v, _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(mu), eigen_sum9(e)),
+  _mm256_storeu_pd(energy, _mm256_mul_pd(v, _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(mu), entry_sum9(e)),
                                                           _mm256_mul_pd(half_lambda_trace, trace))));
   // A = (-V) ((2 mu) (F - R) + (lambda trace) R)
   const __m256d two_mu = _mm256_set1_pd(2.0 * mu), lambda_trace = _mm256_mul_pd(_mm256_set1_pd(lambda), trace);
