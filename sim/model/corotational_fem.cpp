@@ -972,7 +972,8 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   }
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
-                              lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data()};
+                              lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data(),
+                              lower_.column_entries.data(), lower_.row_entries.data()};
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     double pq = 0.0, rz_next = 0.0, a = 0.0;
