@@ -79,6 +79,10 @@ PLIANT_AVX2_FMA inline double horizontal_sum(__m256d x) {
 /// Lanes 0..2 of x, lane 3 zero.
 PLIANT_AVX2_FMA inline __m256d clear_lane3(__m256d x) { return _mm256_blend_pd(x, _mm256_setzero_pd(), 0x8); }
 
+/// The end of the whole pairs in [first, last) (last >= first): a loop `b < pairs_end(...)`, b += 2,
+/// tests one bound per turn (session 15: `b + 1 < last` made GCC keep a second counter).
+inline size_t pairs_end(size_t first, size_t last) { return first + (last - first) / 2 * 2; }
+
 /// acc += B t_j for one block: one FMA per block column into its own accumulator (a0, a1, a2). Each
 /// column is a full 4-lane load; lane 3 is the next column's first entry, for the third column the
 /// next block's: a finite product that is never stored. In bounds for every upper block, since the
@@ -101,7 +105,7 @@ PLIANT_AVX2_FMA inline __m256d gather(const double* blocks, const int* index, si
                                       const double* t) {
   __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), a2 = _mm256_setzero_pd();
   size_t b = first;
-  for (; b + 1 < last; b += 2) {
+  for (const size_t pairs = pairs_end(first, last); b < pairs; b += 2) {
     gather_block(blocks + 9 * b, t + kStride * static_cast<size_t>(index[b]), a0, a1, a2);
     gather_block(blocks + 9 * (b + 1), t + kStride * static_cast<size_t>(index[b + 1]), a0, a1, a2);
   }
@@ -129,7 +133,7 @@ PLIANT_AVX2_FMA inline ColumnProducts column_products(const double* B, __m256d y
 PLIANT_AVX2_FMA inline void scatter(const double* blocks, const int* cols, size_t first, size_t last, __m256d y,
                                     double* acc) {
   size_t b = first;
-  for (; b + 1 < last; b += 2) {
+  for (const size_t pairs = pairs_end(first, last); b < pairs; b += 2) {
     const ColumnProducts e = column_products(blocks + 9 * b, y), f = column_products(blocks + 9 * (b + 1), y);
     double* A = acc + 3 * static_cast<size_t>(cols[b]);
     double* C = acc + 3 * static_cast<size_t>(cols[b + 1]);
@@ -186,7 +190,7 @@ PLIANT_AVX2_FMA inline __m256d gather_lower(const double* lower, const int* inde
                                             const double* sy) {
   __m256d a = _mm256_setzero_pd();
   size_t k = first;
-  for (; k + 1 < last; k += 2) {
+  for (const size_t pairs = pairs_end(first, last); k < pairs; k += 2) {
     a = _mm256_add_pd(a,
                       transposed_block_product(lower + 9 * k, sy + kStride * static_cast<size_t>(index[k])));
     a = _mm256_add_pd(

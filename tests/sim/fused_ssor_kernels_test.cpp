@@ -318,8 +318,9 @@ TEST(FusedSsorKernels, ScatterRowEqualsSessionEightsLoopBitForBit) {
 // Session 15: the sweeps indexing with the stored 3 j (LowerTrianglePattern::column_entries and
 // row_entries, what the solver passes) against the same kernels forming 3 j per block visit (entries
 // nullptr, the path they replace) and against session 8's kernels: t, q, the accumulator and p . q
-// bit for bit, with the gathered forward sweep and with the scatter one, fixed rows keeping their
-// blocks or not. The stored entries are checked against 3 j one by one.
+// bit for bit, with the gathered forward sweep (which stores q and s y in whole lanes but the last
+// row's: nothing written past 3 n) and with the scatter one, fixed rows keeping their blocks or not.
+// The stored entries are checked against 3 j one by one.
 TEST(FusedSsorKernels, StoredEntriesEqualEntriesFormedPerBlockBitForBit) {
   if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
   struct Shape {
@@ -346,14 +347,21 @@ TEST(FusedSsorKernels, StoredEntriesEqualEntriesFormedPerBlockBitForBit) {
         const bool gathered = pair[0].lower_blocks != nullptr;
         const std::vector<double> p = sys.vector();
         SCOPED_TRACE(testing::Message() << shape.cells_x << " seed " << seed << " gathered " << gathered);
-        std::vector<double> t(3 * sys.n), q(3 * sys.n), acc = sys.vector();
-        std::vector<double> t_formed(3 * sys.n), q_formed(3 * sys.n), acc_formed = sys.vector();
+        // Four sentinel entries past each vector's end: the whole-lane stores must stop at 3 n.
+        const double sentinel = 1234.5;
+        std::vector<double> t(3 * sys.n + 4, sentinel), q(3 * sys.n + 4, sentinel), acc = sys.vector();
+        acc.insert(acc.end(), 4, sentinel);
+        std::vector<double> t_formed = t, q_formed = q, acc_formed = sys.vector();
+        acc_formed.insert(acc_formed.end(), 4, sentinel);
         const double pq = fused_eisenstat_sweeps(pair[0], p.data(), t.data(), q.data(), acc.data());
         const double pq_formed =
             fused_eisenstat_sweeps(pair[1], p.data(), t_formed.data(), q_formed.data(), acc_formed.data());
         EXPECT_TRUE(same_bits(t, t_formed));
         EXPECT_TRUE(same_bits(q, q_formed));
         EXPECT_TRUE(same_bits(acc, acc_formed));
+        for (const auto* v : {&t, &q, &acc}) {
+          EXPECT_TRUE(std::all_of(v->end() - 4, v->end(), [&](double e) { return e == sentinel; }));
+        }
         EXPECT_EQ(std::memcmp(&pq, &pq_formed, sizeof(double)), 0) << pq << " vs " << pq_formed;
         expect_sweeps_equal_reference(sys, pair[0], p, /*compare_acc=*/!gathered);
         ++checked;
