@@ -391,13 +391,11 @@ void CorotationalFem::assemble_step_stiffness() {
     stiffness_assembled_ = true;
     return;
   }
-  row_dirty_.assign(n, 0);
   moved_tets_.clear();
   for (size_t t = 0; t < nt; ++t) {
     if (std::abs(block_rotations_[t].dot(rotations_[t])) >= min_cos) continue;
     block_rotations_[t] = rotations_[t];
     moved_tets_.push_back(static_cast<int>(t));
-    for (int v : mesh_->tets()[t]) row_dirty_[static_cast<size_t>(v)] = 1;
   }
   // The moved tets' gradients from their current rotations (rotated_gradients_ may be stale:
   // linearise), four at a time in lanes where the kernels run (the same bits, tet_gradient_kernels.h).
@@ -412,6 +410,14 @@ void CorotationalFem::assemble_step_stiffness() {
   // this function's instructions on the beam). Otherwise only the blocks a moved tet adds to are
   // summed again (the rest of a dirty row is what it was); block_dirty_ is all zero between calls.
   const bool every_tet_moved = moved_tets_.size() == nt;
+  // The rows to sum again are marked only when some tet did not move (session 15: when every tet
+  // moved, the dirty rows are the vertices in a tet, counted from the mesh).
+  if (!every_tet_moved) {
+    row_dirty_.assign(n, 0);
+    for (int t : moved_tets_) {
+      for (int v : mesh_->tets()[static_cast<size_t>(t)]) row_dirty_[static_cast<size_t>(v)] = 1;
+    }
+  }
   const auto flag_moved_tets_blocks = [&](char flag) {
     block_dirty_.resize(blocks_.size(), 0);
     for (int t : moved_tets_) {
@@ -426,7 +432,7 @@ void CorotationalFem::assemble_step_stiffness() {
     // A vertex in no tet has no dirty row; its (diagonal) block is zero since the first assembly,
     // which assemble_all_rows writes again.
     assemble_all_rows(block_gradients_.data());
-    rows = static_cast<size_t>(std::count(row_dirty_.begin(), row_dirty_.end(), char{1}));
+    for (size_t i = 0; i < n; ++i) rows += mesh_->vertex_tets(static_cast<int>(i)).empty() ? 0 : 1;
   } else {
     for (size_t i = 0; i < n; ++i) {
       if (row_dirty_[i] == 0) continue;
@@ -966,7 +972,8 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   }
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
-                              lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data()};
+                              lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data(),
+                              lower_.column_entries.data(), lower_.row_entries.data()};
   while (residual > tolerance && it < accuracy_.max_solver_iterations) {
     if (!(rz > 0.0)) break;
     double pq = 0.0, rz_next = 0.0, a = 0.0;

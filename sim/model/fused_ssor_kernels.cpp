@@ -1,6 +1,7 @@
 #include "sim/model/fused_ssor_kernels.h"
 
 #include <algorithm>
+#include <cmath>
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
@@ -30,6 +31,11 @@ LowerTrianglePattern lower_triangle_pattern(const int* offsets, const int* cols,
       p.upper_blocks[slot] = static_cast<int>(k);
     }
   }
+  p.row_entries.resize(p.rows.size());
+  for (size_t k = 0; k < p.rows.size(); ++k) p.row_entries[k] = 3 * p.rows[k];
+  const auto blocks = static_cast<size_t>(offsets[n]);
+  p.column_entries.resize(blocks);
+  for (size_t b = 0; b < blocks; ++b) p.column_entries[b] = 3 * cols[b];
   return p;
 }
 
@@ -73,6 +79,10 @@ PLIANT_AVX2_FMA inline double horizontal_sum(__m256d x) {
 /// Lanes 0..2 of x, lane 3 zero.
 PLIANT_AVX2_FMA inline __m256d clear_lane3(__m256d x) { return _mm256_blend_pd(x, _mm256_setzero_pd(), 0x8); }
 
+/// The end of the whole pairs in [first, last) (last >= first): a loop `b < pairs_end(...)`, b += 2,
+/// tests one bound per turn (session 15: `b + 1 < last` made GCC keep a second counter).
+inline size_t pairs_end(size_t first, size_t last) { return first + (last - first) / 2 * 2; }
+
 /// acc += B t_j for one block: one FMA per block column into its own accumulator (a0, a1, a2). Each
 /// column is a full 4-lane load; lane 3 is the next column's first entry, for the third column the
 /// next block's: a finite product that is never stored. In bounds for every upper block, since the
@@ -84,19 +94,22 @@ PLIANT_AVX2_FMA inline void gather_block(const double* B, const double* tj, __m2
   a2 = _mm256_fmadd_pd(_mm256_loadu_pd(B + 6), _mm256_broadcast_sd(tj + 2), a2);
 }
 
-/// sum_b B_b t_{cols[b]} over [first, last) (lane 3 not zero). Three accumulators (one per block
-/// column) keep the FMA chains independent: 4 cycles per block instead of 12. Each accumulator
-/// takes the blocks in ascending order, one FMA each, as session 8's loop (the same bits); the loop
-/// runs two blocks per turn (session 12: fewer loop instructions per block).
-PLIANT_AVX2_FMA inline __m256d gather(const double* blocks, const int* cols, size_t first, size_t last,
+/// sum_b B_b t_{cols[b]} over [first, last) (lane 3 not zero), the vertex's first entry in t being
+/// kStride index[b]: index is cols with kStride 3, or the stored 3 cols (kStride 1, session 15: no
+/// multiply per block). Three accumulators (one per block column) keep the FMA chains independent:
+/// 4 cycles per block instead of 12. Each accumulator takes the blocks in ascending order, one FMA
+/// each, as session 8's loop (the same bits); the loop runs two blocks per turn (session 12: fewer
+/// loop instructions per block).
+template <size_t kStride>
+PLIANT_AVX2_FMA inline __m256d gather(const double* blocks, const int* index, size_t first, size_t last,
                                       const double* t) {
   __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), a2 = _mm256_setzero_pd();
   size_t b = first;
-  for (; b + 1 < last; b += 2) {
-    gather_block(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
-    gather_block(blocks + 9 * (b + 1), t + 3 * static_cast<size_t>(cols[b + 1]), a0, a1, a2);
+  for (const size_t pairs = pairs_end(first, last); b < pairs; b += 2) {
+    gather_block(blocks + 9 * b, t + kStride * static_cast<size_t>(index[b]), a0, a1, a2);
+    gather_block(blocks + 9 * (b + 1), t + kStride * static_cast<size_t>(index[b + 1]), a0, a1, a2);
   }
-  if (b < last) gather_block(blocks + 9 * b, t + 3 * static_cast<size_t>(cols[b]), a0, a1, a2);
+  if (b < last) gather_block(blocks + 9 * b, t + kStride * static_cast<size_t>(index[b]), a0, a1, a2);
   return _mm256_add_pd(_mm256_add_pd(a0, a1), a2);
 }
 
@@ -120,7 +133,7 @@ PLIANT_AVX2_FMA inline ColumnProducts column_products(const double* B, __m256d y
 PLIANT_AVX2_FMA inline void scatter(const double* blocks, const int* cols, size_t first, size_t last, __m256d y,
                                     double* acc) {
   size_t b = first;
-  for (; b + 1 < last; b += 2) {
+  for (const size_t pairs = pairs_end(first, last); b < pairs; b += 2) {
     const ColumnProducts e = column_products(blocks + 9 * b, y), f = column_products(blocks + 9 * (b + 1), y);
     double* A = acc + 3 * static_cast<size_t>(cols[b]);
     double* C = acc + 3 * static_cast<size_t>(cols[b + 1]);
@@ -169,16 +182,23 @@ PLIANT_AVX2_FMA inline __m256d transposed_block_product(const double* L, const d
 
 /// sum_k L_k sy_{rows[k]} over [first, last), k ascending (j ascending): acc_i as the scatter leaves
 /// it, each block's product added in the order the rows before i sent theirs (lane 3 not zero).
-/// Two blocks per turn (fewer loop instructions per block; the adds stay in order).
-PLIANT_AVX2_FMA inline __m256d gather_lower(const double* lower, const int* rows, size_t first, size_t last,
+/// Row j's first entry in sy is kStride index[k] (index: rows with kStride 3, or the stored 3 rows
+/// with kStride 1, as gather). Two blocks per turn (fewer loop instructions per block; the adds stay
+/// in order).
+template <size_t kStride>
+PLIANT_AVX2_FMA inline __m256d gather_lower(const double* lower, const int* index, size_t first, size_t last,
                                             const double* sy) {
   __m256d a = _mm256_setzero_pd();
   size_t k = first;
-  for (; k + 1 < last; k += 2) {
-    a = _mm256_add_pd(a, transposed_block_product(lower + 9 * k, sy + 3 * static_cast<size_t>(rows[k])));
-    a = _mm256_add_pd(a, transposed_block_product(lower + 9 * (k + 1), sy + 3 * static_cast<size_t>(rows[k + 1])));
+  for (const size_t pairs = pairs_end(first, last); k < pairs; k += 2) {
+    a = _mm256_add_pd(a,
+                      transposed_block_product(lower + 9 * k, sy + kStride * static_cast<size_t>(index[k])));
+    a = _mm256_add_pd(
+        a, transposed_block_product(lower + 9 * (k + 1), sy + kStride * static_cast<size_t>(index[k + 1])));
   }
-  if (k < last) a = _mm256_add_pd(a, transposed_block_product(lower + 9 * k, sy + 3 * static_cast<size_t>(rows[k])));
+  if (k < last)
+    a = _mm256_add_pd(a,
+                      transposed_block_product(lower + 9 * k, sy + kStride * static_cast<size_t>(index[k])));
   return a;
 }
 
@@ -192,39 +212,94 @@ PLIANT_AVX2_FMA inline void prefetch_row(const double* blocks, const int* offset
   for (; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
 }
 
+/// Stores x's lanes 0..2 at v (kWholeLanes false), or all four (true: lane 3 lands on v[3], which
+/// the caller overwrites later; one store instead of three).
+template <bool kWholeLanes>
+PLIANT_AVX2_FMA inline void store_row(double* v, __m256d x) {
+  if constexpr (kWholeLanes) {
+    _mm256_storeu_pd(v, x);
+  } else {
+    store3(v, x);
+  }
+}
+
+/// The pointers the forward sweep reads, copied out of the system (the stores through q and sy
+/// could alias it for the compiler, which then reloads them per row).
+struct ForwardSweepData {
+  const double* lower;
+  const int* rows;
+  const int* offsets;
+  const double* D;
+  const double* D_inverse;
+  const char* fixed;
+};
+
+/// Row i of the gathered forward sweep: q_i and s y_i stored, p_i . q_i added to pq (returned).
+/// kWholeLanes (every row but the last, session 15): q_i and s y_i are stored as four lanes, the
+/// fourth landing on row i + 1's first entry, which row i + 1 stores before anything reads it (its
+/// gather reads s y_j of rows j < i + 1 only).
+template <size_t kStride, bool kWholeLanes>
+PLIANT_AVX2_FMA inline __m256d forward_row(const ForwardSweepData& d, size_t i, const double* p, const double* t,
+                                           double* q, double* sy, __m256d s, __m256d pq) {
+  const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
+  const __m256d u = _mm256_sub_pd(pi, mat_vec(d.D + 9 * i, ti));
+  if (d.fixed[i] != 0) {  // y = u, nothing sent
+    const __m256d qi = _mm256_add_pd(ti, u);
+    store_row<kWholeLanes>(q + 3 * i, qi);
+    store_row<kWholeLanes>(sy + 3 * i, _mm256_setzero_pd());
+    return _mm256_fmadd_pd(pi, qi, pq);
+  }
+  const __m256d a = gather_lower<kStride>(d.lower, d.rows, static_cast<size_t>(d.offsets[i]),
+                                          static_cast<size_t>(d.offsets[i + 1]), sy);
+  const __m256d y = clear_lane3(mat_vec(d.D_inverse + 9 * i, _mm256_sub_pd(u, a)));
+  const __m256d qi = _mm256_add_pd(ti, y);
+  store_row<kWholeLanes>(q + 3 * i, qi);
+  store_row<kWholeLanes>(sy + 3 * i, _mm256_mul_pd(s, y));
+  return _mm256_fmadd_pd(pi, qi, pq);
+}
+
 /// The forward sweep with the lower blocks (session 13): row i gathers acc_i = sum_{j < i} L_ij s y_j
 /// from the s y_j the rows before it stored in acc (a fixed row stores zeros, and its transposed
 /// blocks are zero), instead of the rows before it scattering into acc_i. Every other value is the
-/// scatter loop's expression; returns p . q.
-PLIANT_AVX2_FMA double forward_sweep_gathered(const FusedSsorSystem& sys, const double* p, const double* t, double* q,
-                                              double* sy) {
-  const double* lower = sys.lower_blocks;
-  const int* rows = sys.lower_rows;
-  const int* offsets = sys.lower_offsets;
-  const double* D = sys.D;
+/// scatter loop's expression; returns p . q. rows: lower_rows (kStride 3) or lower_row_entries (1).
+template <size_t kStride>
+PLIANT_AVX2_FMA double forward_sweep_gathered(const FusedSsorSystem& sys, const int* rows, const double* p,
+                                              const double* t, double* q, double* sy) {
+  const ForwardSweepData d{sys.lower_blocks, rows, sys.lower_offsets, sys.D, sys.D_inverse, sys.fixed};
+  const size_t n = sys.n;
+  const __m256d s = _mm256_set1_pd(sys.s);
+  __m256d pq = _mm256_setzero_pd();
+  if (n == 0) return 0.0;
+  for (size_t i = 0; i + 1 < n; ++i) pq = forward_row<kStride, true>(d, i, p, t, q, sy, s, pq);
+  pq = forward_row<kStride, false>(d, n - 1, p, t, q, sy, s, pq);
+  return horizontal_sum(pq);
+}
+
+/// The backward sweep t = (D + L^T)^-1 p, rows descending, each row's blocks prefetched 8 rows
+/// ahead; zeroes acc row by row when the forward sweep scatters into it (kZeroAcc). cols: sys.cols
+/// (kStride 3) or sys.col_entries (kStride 1).
+template <size_t kStride, bool kZeroAcc>
+PLIANT_AVX2_FMA void backward_sweep(const FusedSsorSystem& sys, const int* cols, const double* p, double* t,
+                                    double* acc) {
+  constexpr size_t kPrefetchRows = 8;
+  const double* blocks = sys.blocks;
+  const int* offsets = sys.offsets;
   const double* D_inverse = sys.D_inverse;
   const char* fixed = sys.fixed;
   const size_t n = sys.n;
   const __m256d s = _mm256_set1_pd(sys.s);
-  __m256d pq = _mm256_setzero_pd();
-  for (size_t i = 0; i < n; ++i) {
-    const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
-    const __m256d u = _mm256_sub_pd(pi, mat_vec(D + 9 * i, ti));
-    if (fixed[i] != 0) {  // y = u, nothing sent
-      const __m256d qi = _mm256_add_pd(ti, u);
-      store3(q + 3 * i, qi);
-      pq = _mm256_fmadd_pd(pi, qi, pq);
-      store3(sy + 3 * i, _mm256_setzero_pd());
+  const __m256d zero = _mm256_setzero_pd();
+  for (size_t i = n; i-- > 0;) {
+    if (kZeroAcc) store3(acc + 3 * i, zero);
+    if (fixed[i] != 0) {
+      t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
       continue;
     }
-    const __m256d a = gather_lower(lower, rows, static_cast<size_t>(offsets[i]), static_cast<size_t>(offsets[i + 1]), sy);
-    const __m256d y = clear_lane3(mat_vec(D_inverse + 9 * i, _mm256_sub_pd(u, a)));
-    const __m256d qi = _mm256_add_pd(ti, y);
-    store3(q + 3 * i, qi);
-    pq = _mm256_fmadd_pd(pi, qi, pq);
-    store3(sy + 3 * i, _mm256_mul_pd(s, y));
+    if (i >= kPrefetchRows) prefetch_row(blocks, offsets, i - kPrefetchRows);
+    const __m256d a = gather<kStride>(blocks, cols, static_cast<size_t>(offsets[i]) + 1,
+                                      static_cast<size_t>(offsets[i + 1]), t);
+    store3(t + 3 * i, mat_vec(D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
   }
-  return horizontal_sum(pq);
 }
 
 }  // namespace
@@ -237,35 +312,39 @@ PLIANT_AVX2_FMA void fused_scatter_row(const double* blocks, const int* cols, si
   scatter(blocks, cols, first, last, _mm256_set_pd(0.0, y2, y1, y0), acc);
 }
 
-// Rows descending for t, each row's blocks prefetched 8 rows ahead; then rows ascending for q with
-// the transposed blocks scattered. The forward sweep's accumulator is zeroed row by row in the
-// backward sweep (session 12; before, a memset between the sweeps: the same +0.0 in every entry,
-// and nothing reads acc before the forward sweep). The system's members are copied into locals: the
-// stores through t, q and acc could alias sys for the compiler, which then reloaded them per row.
+// Rows descending for t (backward_sweep); then rows ascending for q, gathering from the lower
+// blocks (forward_sweep_gathered) or with the transposed blocks scattered (below). The forward sweep's
+// accumulator is zeroed row by row in the backward sweep (session 12; before, a memset between the sweeps:
+// the same +0.0 in every entry, and nothing reads acc before the forward sweep). The system's members are
+// copied into locals: the stores through t, q and acc could alias sys for the compiler, which then reloaded
+// them per row.
 PLIANT_AVX2_FMA double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const double* p, double* t, double* q,
                                               double* acc) {
-  constexpr size_t kPrefetchRows = 8;
-  const double* blocks = sys.blocks;
+  const bool gathered = sys.lower_blocks != nullptr;
+  if (gathered) {
+    if (sys.col_entries != nullptr) {
+      backward_sweep<1, false>(sys, sys.col_entries, p, t, acc);
+    } else {
+      backward_sweep<3, false>(sys, sys.cols, p, t, acc);
+    }
+  } else if (sys.col_entries != nullptr) {
+    backward_sweep<1, true>(sys, sys.col_entries, p, t, acc);
+  } else {
+    backward_sweep<3, true>(sys, sys.cols, p, t, acc);
+  }
+  if (gathered) {
+    return sys.lower_row_entries != nullptr
+               ? forward_sweep_gathered<1>(sys, sys.lower_row_entries, p, t, q, acc)
+               : forward_sweep_gathered<3>(sys, sys.lower_rows, p, t, q, acc);
+  }
   const int* cols = sys.cols;
   const int* offsets = sys.offsets;
+  const double* blocks = sys.blocks;
   const double* D = sys.D;
   const double* D_inverse = sys.D_inverse;
   const char* fixed = sys.fixed;
   const size_t n = sys.n;
   const __m256d s = _mm256_set1_pd(sys.s);
-  const __m256d zero = _mm256_setzero_pd();
-  const bool gathered = sys.lower_blocks != nullptr;
-  for (size_t i = n; i-- > 0;) {
-    if (!gathered) store3(acc + 3 * i, zero);
-    if (fixed[i] != 0) {
-      t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
-      continue;
-    }
-    if (i >= kPrefetchRows) prefetch_row(blocks, offsets, i - kPrefetchRows);
-    const __m256d a = gather(blocks, cols, static_cast<size_t>(offsets[i]) + 1, static_cast<size_t>(offsets[i + 1]), t);
-    store3(t + 3 * i, mat_vec(D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
-  }
-  if (gathered) return forward_sweep_gathered(sys, p, t, q, acc);
   __m256d pq = _mm256_setzero_pd();
   for (size_t i = 0; i < n; ++i) {
     const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
@@ -288,12 +367,23 @@ PLIANT_AVX2_FMA double fused_eisenstat_sweeps(const FusedSsorSystem& sys, const 
 
 PLIANT_AVX2_FMA double fused_cg_update(const FusedSsorSystem& sys, double a, const double* z, const double* q,
                                        double* dv, double* r, double* Dr) {
+  // dv += a z and r -= a q entry by entry, four entries per instruction (session 15: before, a row's
+  // three in masked lanes; each entry is the same FMA, so the same bits, in fewer loads and stores).
   const __m256d av = _mm256_set1_pd(a);
+  const size_t m = 3 * sys.n, whole = m / 4 * 4;
+  size_t k = 0;
+  for (; k < whole; k += 4) {
+    _mm256_storeu_pd(dv + k, _mm256_fmadd_pd(av, _mm256_loadu_pd(z + k), _mm256_loadu_pd(dv + k)));
+    _mm256_storeu_pd(r + k, _mm256_fnmadd_pd(av, _mm256_loadu_pd(q + k), _mm256_loadu_pd(r + k)));
+  }
+  for (; k < m; ++k) {
+    dv[k] = std::fma(a, z[k], dv[k]);
+    r[k] = std::fma(-a, q[k], r[k]);
+  }
+  // D r and r . D r row by row (lane 3 of r_i zero, as the masked update left it).
   __m256d rz = _mm256_setzero_pd();
   for (size_t i = 0; i < sys.n; ++i) {
-    store3(dv + 3 * i, _mm256_fmadd_pd(av, load3(z + 3 * i), load3(dv + 3 * i)));
-    const __m256d ri = _mm256_fnmadd_pd(av, load3(q + 3 * i), load3(r + 3 * i));
-    store3(r + 3 * i, ri);
+    const __m256d ri = load3(r + 3 * i);
     const __m256d di = mat_vec(sys.D + 9 * i, ri);
     store3(Dr + 3 * i, di);
     rz = _mm256_fmadd_pd(ri, di, rz);

@@ -30,6 +30,10 @@ struct LowerTrianglePattern {
   std::vector<int> offsets;       ///< n + 1: row i's entries are [offsets[i], offsets[i + 1])
   std::vector<int> rows;          ///< per entry, its row j in the upper storage
   std::vector<int> upper_blocks;  ///< per entry, its block index in the upper storage
+  /// Session 15: the packed-vector indices the sweeps read, stored so that the kernels form no 3 j
+  /// per block visit: per entry 3 rows[k].
+  std::vector<int> row_entries;
+  std::vector<int> column_entries;  ///< per upper block b (the diagonal ones too): 3 cols[b]
 };
 
 /// Builds the pattern by a counting sort over the columns (any CPU).
@@ -59,6 +63,12 @@ struct FusedSsorSystem {
   const double* lower_blocks = nullptr;
   const int* lower_rows = nullptr;     ///< the row j of each lower block
   const int* lower_offsets = nullptr;  ///< n + 1 offsets: row i's lower blocks [lower_offsets[i], lower_offsets[i + 1])
+  /// Optional (session 15): 3 cols[b] per block (LowerTrianglePattern::column_entries), which the
+  /// backward sweep's gather indexes with. nullptr: 3 cols[b] formed per visit (the same values).
+  const int* col_entries = nullptr;
+  /// Optional (session 15): 3 lower_rows[k] per lower block (LowerTrianglePattern::row_entries), for
+  /// the gathered forward sweep. nullptr: formed per visit.
+  const int* lower_row_entries = nullptr;
 };
 
 /// out's block k = K'_ji^T for the upper block upper_blocks[k] = (j, i), j = lower_rows[k]

@@ -112,6 +112,24 @@ REFERENCE_AVX2_FMA double reference_sweeps(const FusedSsorSystem& sys, const dou
   return _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)));
 }
 
+// fused_cg_update as it was before session 15 (fused_ssor_kernels.cpp at af47300): the reference
+// for the update of dv and r in flat lanes.
+REFERENCE_AVX2_FMA double reference_cg_update(const FusedSsorSystem& sys, double a, const double* z, const double* q,
+                                              double* dv, double* r, double* Dr) {
+  const __m256d av = _mm256_set1_pd(a);
+  __m256d rz = _mm256_setzero_pd();
+  for (size_t i = 0; i < sys.n; ++i) {
+    reference_store3(dv + 3 * i, _mm256_fmadd_pd(av, reference_load3(z + 3 * i), reference_load3(dv + 3 * i)));
+    const __m256d ri = _mm256_fnmadd_pd(av, reference_load3(q + 3 * i), reference_load3(r + 3 * i));
+    reference_store3(r + 3 * i, ri);
+    const __m256d di = reference_mat_vec(sys.D + 9 * i, ri);
+    reference_store3(Dr + 3 * i, di);
+    rz = _mm256_fmadd_pd(ri, di, rz);
+  }
+  const __m128d h = _mm_add_pd(_mm256_castpd256_pd128(rz), _mm256_extractf128_pd(rz, 1));
+  return _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)));
+}
+
 // --- The systems. ---
 
 bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
@@ -294,6 +312,95 @@ TEST(FusedSsorKernels, ScatterRowEqualsSessionEightsLoopBitForBit) {
                           acc_ref.data());
   }
   EXPECT_TRUE(same_bits(acc, acc_ref));
+}
+
+
+// Session 15: the sweeps indexing with the stored 3 j (LowerTrianglePattern::column_entries and
+// row_entries, what the solver passes) against the same kernels forming 3 j per block visit (entries
+// nullptr, the path they replace) and against session 8's kernels: t, q, the accumulator and p . q
+// bit for bit, with the gathered forward sweep (which stores q and s y in whole lanes but the last
+// row's: nothing written past 3 n) and with the scatter one, fixed rows keeping their blocks or not.
+// The stored entries are checked against 3 j one by one.
+TEST(FusedSsorKernels, StoredEntriesEqualEntriesFormedPerBlockBitForBit) {
+  if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  struct Shape {
+    int cells_x, cells_yz;
+    bool keep;
+  };
+  int checked = 0;
+  for (const Shape shape : {Shape{75, 4, true}, Shape{5, 2, false}, Shape{3, 1, true}}) {
+    for (unsigned seed = 1; seed <= 4; ++seed) {
+      RandomSystem sys(shape.cells_x, shape.cells_yz, 200 + seed, shape.keep);
+      const double s = seed % 2 == 0 ? 1e-4 : 0.37;
+      const FusedSsorSystem formed_gathered = sys.gathered_system(s);
+      ASSERT_EQ(sys.lower.row_entries.size(), sys.lower.rows.size());
+      ASSERT_EQ(sys.lower.column_entries.size(), sys.cols.size());
+      for (size_t k = 0; k < sys.lower.rows.size(); ++k) ASSERT_EQ(sys.lower.row_entries[k], 3 * sys.lower.rows[k]);
+      for (size_t b = 0; b < sys.cols.size(); ++b) ASSERT_EQ(sys.lower.column_entries[b], 3 * sys.cols[b]);
+      FusedSsorSystem stored_gathered = formed_gathered;
+      stored_gathered.col_entries = sys.lower.column_entries.data();
+      stored_gathered.lower_row_entries = sys.lower.row_entries.data();
+      FusedSsorSystem formed_scatter = sys.system(s), stored_scatter = sys.system(s);
+      stored_scatter.col_entries = sys.lower.column_entries.data();
+      const FusedSsorSystem pairs[2][2] = {{stored_gathered, formed_gathered}, {stored_scatter, formed_scatter}};
+      for (const auto& pair : pairs) {
+        const bool gathered = pair[0].lower_blocks != nullptr;
+        const std::vector<double> p = sys.vector();
+        SCOPED_TRACE(testing::Message() << shape.cells_x << " seed " << seed << " gathered " << gathered);
+        // Four sentinel entries past each vector's end: the whole-lane stores must stop at 3 n.
+        const double sentinel = 1234.5;
+        std::vector<double> t(3 * sys.n + 4, sentinel), q(3 * sys.n + 4, sentinel), acc = sys.vector();
+        acc.insert(acc.end(), 4, sentinel);
+        std::vector<double> t_formed = t, q_formed = q, acc_formed = sys.vector();
+        acc_formed.insert(acc_formed.end(), 4, sentinel);
+        const double pq = fused_eisenstat_sweeps(pair[0], p.data(), t.data(), q.data(), acc.data());
+        const double pq_formed =
+            fused_eisenstat_sweeps(pair[1], p.data(), t_formed.data(), q_formed.data(), acc_formed.data());
+        EXPECT_TRUE(same_bits(t, t_formed));
+        EXPECT_TRUE(same_bits(q, q_formed));
+        EXPECT_TRUE(same_bits(acc, acc_formed));
+        for (const auto* v : {&t, &q, &acc}) {
+          EXPECT_TRUE(std::all_of(v->end() - 4, v->end(), [&](double e) { return e == sentinel; }));
+        }
+        EXPECT_EQ(std::memcmp(&pq, &pq_formed, sizeof(double)), 0) << pq << " vs " << pq_formed;
+        expect_sweeps_equal_reference(sys, pair[0], p, /*compare_acc=*/!gathered);
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 24);
+}
+
+
+// Session 15: fused_cg_update's dv += a z and r -= a q in flat 4-lane steps over the 3 n entries
+// (a scalar tail when 3 n is not a multiple of 4) against the per-row masked loop it replaced: dv,
+// r, D r and r . D r bit for bit, for row counts 1, 2, 3, 4, 5 (every tail length) and the box
+// systems, with a of either sign and of 12 decades.
+TEST(FusedSsorKernels, FlatCgUpdateEqualsRowByRowUpdateBitForBit) {
+  if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  int checked = 0;
+  for (const int cells : {75, 5, 3}) {
+    RandomSystem sys(cells, cells == 75 ? 4 : 1, 300 + static_cast<unsigned>(cells));
+    for (const size_t rows : {size_t{1}, size_t{2}, size_t{3}, size_t{4}, size_t{5}, sys.n}) {
+      FusedSsorSystem fs = sys.system(0.37);
+      fs.n = rows;
+      for (const double a : {0.73, -1.9e-6, 4.1e5}) {
+        SCOPED_TRACE(testing::Message() << cells << " rows " << rows << " a " << a);
+        const std::vector<double> z = sys.vector(), q = sys.vector();
+        std::vector<double> dv = sys.vector(), r = sys.vector(), Dr = sys.vector();
+        std::vector<double> dv_ref = dv, r_ref = r, Dr_ref = Dr;
+        const double rz = fused_cg_update(fs, a, z.data(), q.data(), dv.data(), r.data(), Dr.data());
+        const double rz_ref =
+            reference_cg_update(fs, a, z.data(), q.data(), dv_ref.data(), r_ref.data(), Dr_ref.data());
+        EXPECT_TRUE(same_bits(dv, dv_ref));
+        EXPECT_TRUE(same_bits(r, r_ref));
+        EXPECT_TRUE(same_bits(Dr, Dr_ref));
+        EXPECT_EQ(std::memcmp(&rz, &rz_ref, sizeof(double)), 0) << rz << " vs " << rz_ref;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 54);
 }
 
 }  // namespace
