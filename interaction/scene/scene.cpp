@@ -162,7 +162,15 @@ ContactSettings read_contact(const JsonReader& j) {
   c.penalty_damping = j.non_negative_number_or("penalty_damping", c.penalty_damping);
   c.friction = j.boolean_or("friction", c.friction);
   c.linearised_search = j.boolean_or("linearised_search", c.linearised_search);
-  c.limit_friction_move = j.boolean_or("limit_friction_move", c.limit_friction_move);
+  if (auto it = j.find("limit_friction_move")) {
+    // true | false | "charge_returns" (session 15: the limit without session 10's excuse for returns).
+    if (it->is_string()) {
+      it->choice({"charge_returns"});
+      c.limit_friction_move = c.limit_friction_move_charges_returns = true;
+    } else {
+      c.limit_friction_move = it->boolean();
+    }
+  }
   if (auto it = j.find("implicit_correction")) {
     // "off" | "stiff_partners" | "all" | "coupled"; the session-6 booleans stay valid (true: "all").
     if (it->is_string()) {

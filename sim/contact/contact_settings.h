@@ -166,6 +166,16 @@ struct ContactSettings {
   /// (trapezoidal) step of that contact spring applies from a state at rest. Scene value "derived".
   /// false: session 9's rule, bit for bit.
   bool deformable_pair_held_force_derived = false;
+  /// Beyond the paper, opt-in (session 15, docs/experiments.md "Session 15"; scene value
+  /// `"limit_friction_move": "charge_returns"`): with limit_friction_move on, the limit charges a
+  /// friction move's whole deforming part, also the part that returns a stuck patch to where the
+  /// step's integration relaxed it from, which session 10 excused. Between two movable deformable
+  /// bodies stiff within the step ((omega dt)^2 > 1 in plane: the membrane stack's clamped bottom
+  /// pair under sleepers) those returns store more strain each step than the friction impulses
+  /// remove, and the pair churns for ever; under a held probe the same returns are the stick, so the
+  /// probe's tool force changes with this on (by up to 0.30 N from t = 1.388 s).
+  /// false: session 10's limit, bit for bit.
+  bool limit_friction_move_charges_returns = false;
 };
 
 }  // namespace pliant

@@ -115,10 +115,15 @@ void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
     friction_move_deforming_part(body, moves[i], deforming);
     // The step's displacement before the deforming part: the integration's dt v_{n+1} (the
     // velocities before this pass's impulses: a normal impulse changes a velocity, not a position)
-    // plus the moves' rigid part, which is kept.
-    const std::vector<Vec3>& v0 = start_velocities[i];
-    base.resize(body.positions.size());
-    for (size_t v = 0; v < base.size(); ++v) base[v] = time_step * v0[v] + (moves[i][v] - deforming[v]);
+    // plus the moves' rigid part, which is kept. Charging returns, there is none: a move that puts
+    // a stuck patch back where the integration relaxed it from is charged as new strain.
+    if (charge_returns) {
+      base.clear();
+    } else {
+      const std::vector<Vec3>& v0 = start_velocities[i];
+      base.resize(body.positions.size());
+      for (size_t v = 0; v < base.size(); ++v) base[v] = time_step * v0[v] + (moves[i][v] - deforming[v]);
+    }
     const double scale = friction_move_scale(move_energy_terms(body, deforming, base), budget[i]);
     if (scale >= 1.0) continue;
     for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];

@@ -79,6 +79,9 @@ struct FrictionMoveLedger {
   std::vector<std::vector<Vec3>> start_velocities;  ///< per body slot: v at the pass's start (m/s)
   std::vector<Vec3> base;                ///< scratch: the step's displacement d (m)
   double time_step = 0.0;                ///< the pass's dt (s)
+  /// Charge the whole deforming part, returns of stuck patches included (no base d):
+  /// ContactSettings::limit_friction_move_charges_returns. Set by the caller before the pass.
+  bool charge_returns = false;
   /// Starts a pass over `bodies` with time step `step` (s): keeps the deformable bodies' velocities,
   /// the ones the integration moved the positions with (x_{n+1} = x_n + dt v_{n+1}).
   void begin(std::span<Body* const> bodies, double step) {
@@ -103,7 +106,7 @@ struct FrictionMoveLedger {
   }
   /// Takes back (1 - s) of each touched body's deforming part r, s = friction_move_scale of r on
   /// top of the step's displacement d = dt v (v the velocities at the pass's start) plus the
-  /// moves' rigid part.
+  /// moves' rigid part; with charge_returns, of r alone (d = 0).
   void limit(std::span<Body* const> bodies);
 };
 

@@ -44,21 +44,30 @@ TEST(SceneFormat, ContactHeldForceFractionReachesTheWorld) {
   expect_fraction_key("held_force_fraction", 0.0, &ContactSettings::held_force_fraction);
 }
 
-// contact.limit_friction_move (docs/stability.md M6a): off by default, a scene may turn it on; a
-// non-boolean names its path.
+// contact.limit_friction_move (docs/stability.md M6a): off by default, a scene may turn it on, or
+// on without session 10's excuse for returns ("charge_returns", session 15); any other value names
+// its path.
 TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   nlohmann::json j = probe_coarse_json();
   EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.limit_friction_move);
+  EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.limit_friction_move_charges_returns);
   j["contact"]["limit_friction_move"] = true;
   const Scene scene = parse_scene(j, "probe_coarse.json", ".");
   EXPECT_TRUE(scene.world.contact.limit_friction_move);
+  EXPECT_FALSE(scene.world.contact.limit_friction_move_charges_returns);
   EXPECT_TRUE(instantiate_scene(scene).world->settings().contact.limit_friction_move);
-  j["contact"]["limit_friction_move"] = 0.5;
-  try {
-    parse_scene(j, "probe_coarse.json", ".");
-    ADD_FAILURE() << "no error for 0.5";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("/contact/limit_friction_move"), std::string::npos) << e.what();
+  j["contact"]["limit_friction_move"] = "charge_returns";
+  const Scene charging = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_TRUE(charging.world.contact.limit_friction_move);
+  EXPECT_TRUE(instantiate_scene(charging).world->settings().contact.limit_friction_move_charges_returns);
+  for (const nlohmann::json bad : {nlohmann::json(0.5), nlohmann::json("charge")}) {
+    j["contact"]["limit_friction_move"] = bad;
+    try {
+      parse_scene(j, "probe_coarse.json", ".");
+      ADD_FAILURE() << "no error for " << bad.dump();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("/contact/limit_friction_move"), std::string::npos) << e.what();
+    }
   }
 }
 

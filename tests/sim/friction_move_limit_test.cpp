@@ -216,6 +216,8 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
 // already stored. The limit must leave the move whole (positions bit-identical to the full
 // move); the pre-stress-blind bound (the move charged alone) would have taken back 1 - 1 /
 // (omega dt) of it, omega^2 = k / m with k = vertex_stiffness_along: the stuck vertex would slip.
+// Session 15's opt-in charges the return (limit_friction_move_charges_returns): it must be that
+// bound, 1 / (omega dt) kept, and touch no other vertex.
 TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
   Case c{.name = "surface instrument 1 MPa", .method = ContactMethod::contact_surface};
   c.partner = Partner::instrument;
@@ -254,7 +256,17 @@ TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
                                   limit ? &ledger : nullptr);
     return lower.positions;
   };
-  const std::vector<Vec3> full = stage5(false), limited = stage5(true);
+  // Session 15's opt-in (limit_friction_move_charges_returns): the same pass with the return charged.
+  auto stage5_charging_returns = [&] {
+    lower.positions = x0, lower.velocities = v0;
+    std::vector<ContactImpulse> impulses;
+    std::vector<RigidModes> rigid;
+    FrictionMoveLedger ledger;
+    ledger.charge_returns = true;
+    apply_contact_velocity_update(world.bodies(), contacts, dt, true, held, contacts.size(), impulses, rigid, &ledger);
+    return lower.positions;
+  };
+  const std::vector<Vec3> full = stage5(false), limited = stage5(true), charged = stage5_charging_returns();
   // Stuck: the full move returns the vertex to where the step started (rest + X), and the limit
   // takes nothing back.
   EXPECT_NEAR((full[static_cast<size_t>(top)] - (rest + Vec3(X, 0, 0))).norm(), 0.0, 1e-12);
@@ -268,6 +280,14 @@ TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
   EXPECT_GT(omega_dt, 2.0);
   // (vertex_stiffness_along and move_energy agree to 0.1% for this vertex: 0.20488 vs 0.20499)
   EXPECT_NEAR(blind, 1.0 / omega_dt, 2e-3 / omega_dt);
+  // Charging returns (session 15) is that blind bound: the vertex keeps 1 / (omega dt) of its return
+  // and slips back towards rest by the rest of it; every other vertex is where the full move left it.
+  const double kept = (charged[static_cast<size_t>(top)] - rest).x() / X;
+  EXPECT_NEAR(kept, 1.0 / omega_dt, 3e-3 / omega_dt);
+  EXPECT_NEAR((charged[static_cast<size_t>(top)] - rest).tail<2>().norm(), 0.0, 1e-15);
+  for (size_t v = 0; v < full.size(); ++v) {
+    if (static_cast<int>(v) != top) EXPECT_EQ(charged[v], full[v]) << v;
+  }
 }
 
 }  // namespace
