@@ -735,9 +735,17 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
       const Vec3 restoring = std::max(0.0, -g.forces[i].dot(dir)) * dir;  // pushes the other body away
       double weights = 0.0;
       for (const auto& p : region_.partners_of(v)) weights += p.weight;
+      // Session 15: a vertex's partners are almost always on one body, so the pair found for the
+      // last partner is taken again without pair_of's look-up (the same pair, the same sums).
+      int last_other = -1;
+      PairContactForce* last_pair = nullptr;
       for (const auto& p : region_.partners_of(v)) {
         const int other = vertices[static_cast<size_t>(p.region_vertex)].body;
-        PairContactForce& pair = pair_of(v.body, other);
+        if (other != last_other) {
+          last_pair = &pair_of(v.body, other);
+          last_other = other;
+        }
+        PairContactForce& pair = *last_pair;
         // The elastic force of v's body acts on the other body, against its own displacement.
         (pair.body_a == other ? pair.elastic_on_a : pair.elastic_on_b) -= (p.weight / weights) * restoring;
       }
