@@ -105,11 +105,15 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     if (normal.squaredNorm() == 0.0) continue;
 
     const double w_x = inverse_mass(m, contact.vertex);
+    // The triangle's inverse masses once per contact (session 15: apply() and the take-back asked
+    // inverse_mass again per vertex and impulse, a division each; the same values).
+    std::array<double, 3> w_y{};
     double w_p = 0.0;
     Vec3 v_p = Vec3::Zero();
     for (int k = 0; k < 3; ++k) {
       const int y = tri[static_cast<size_t>(k)];
-      w_p += b[k] * b[k] * inverse_mass(n, y);
+      w_y[static_cast<size_t>(k)] = inverse_mass(n, y);
+      w_p += b[k] * b[k] * w_y[static_cast<size_t>(k)];
       v_p += b[k] * n.velocities[static_cast<size_t>(y)];
     }
     const double w_sum = w_x + w_p;
@@ -134,7 +138,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       }
       for (int k = 0; k < 3; ++k) {
         const int y = tri[static_cast<size_t>(k)];
-        const double wy = inverse_mass(n, y);
+        const double wy = w_y[static_cast<size_t>(k)];
         if (wy == 0.0 || b[k] == 0.0) continue;
         // Distribute so the contact point's velocity changes by -w_p j (minimum-norm split).
         const Vec3 dv = -b[k] * wy * j;
@@ -181,7 +185,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       } else {
         for (int k = 0; k < 3; ++k) {
           const int y = tri[static_cast<size_t>(k)];
-          n.velocities[static_cast<size_t>(y)] -= b[k] * inverse_mass(n, y) * j;
+          n.velocities[static_cast<size_t>(y)] -= b[k] * w_y[static_cast<size_t>(k)] * j;
         }
       }
       vn = 0.0;
@@ -210,7 +214,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       for (int k = 0; k < 3; ++k) {
         const int y = tri[static_cast<size_t>(k)];
         wf_y[static_cast<size_t>(k)] = friction_inverse_mass(n, y, tangent, dt);
-        compliant = compliant || wf_y[static_cast<size_t>(k)] != inverse_mass(n, y);
+        compliant = compliant || wf_y[static_cast<size_t>(k)] != w_y[static_cast<size_t>(k)];
         wf_p += b[k] * b[k] * wf_y[static_cast<size_t>(k)];
       }
     }
