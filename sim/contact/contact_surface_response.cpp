@@ -111,7 +111,13 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       if (frozen && frozen_iterations <= 0) continue;
       g.query_vertices.clear();
       g.query_entries.clear();
-      for (size_t i = linear_count; i < count; ++i) {
+      if (frozen_iterations <= 0) {  // every remaining entry asks the exact query (session 15: no per-entry test)
+        g.query_vertices.assign(g.vertices.begin() + static_cast<std::ptrdiff_t>(linear_count),
+                                g.vertices.begin() + static_cast<std::ptrdiff_t>(count));
+        g.query_entries.resize(count - linear_count);
+        std::iota(g.query_entries.begin(), g.query_entries.end(), static_cast<int>(linear_count));
+      }
+      for (size_t i = linear_count; i < count && frozen_iterations > 0; ++i) {
         const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
         const double limit = resolution * v.length;
         const bool small = frozen_iterations > 0 && v.displacement.squaredNorm() <= limit * limit;
@@ -144,7 +150,7 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
     }
     for (size_t i = 0; i < count; ++i) {
       auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-      const double len = v.displacement.norm();
+      const double len = v.displacement_length;
       const double along = len > 0.0 ? -g.forces[i].dot(v.displacement) / len : 0.0;
       v.pressure = v.area > 0.0 ? std::max(0.0, along) / v.area : 0.0;
     }
@@ -729,7 +735,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   for (const auto& g : region_.groups()) {
     for (size_t i = 0; i < g.vertices.size(); ++i) {
       const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-      const double len = v.displacement.norm();
+      const double len = v.displacement_length;
       if (len <= 0.0 || v.partner_count == 0) continue;
       const Vec3 dir = v.displacement / len;
       const Vec3 restoring = std::max(0.0, -g.forces[i].dot(dir)) * dir;  // pushes the other body away

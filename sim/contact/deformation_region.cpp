@@ -164,6 +164,7 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
     auto& v = vertices_[i];
     if (!v.colliding) denominator[i] += 1.0;  // Eq. 1's "+1" with d = 0
     v.displacement = denominator[i] > 0.0 ? Vec3(numerator[i] / denominator[i]) : Vec3::Zero();
+    v.displacement_length = v.displacement.norm();
     // An immovable vertex's pressure is never compared (it does not search, and is not evaluated).
     if (!v.immovable) {
       const Body& b = *bodies[static_cast<size_t>(v.body)];
