@@ -111,7 +111,13 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
       if (frozen && frozen_iterations <= 0) continue;
       g.query_vertices.clear();
       g.query_entries.clear();
-      for (size_t i = linear_count; i < count; ++i) {
+      if (frozen_iterations <= 0) {  // every remaining entry asks the exact query (session 15: no per-entry test)
+        g.query_vertices.assign(g.vertices.begin() + static_cast<std::ptrdiff_t>(linear_count),
+                                g.vertices.begin() + static_cast<std::ptrdiff_t>(count));
+        g.query_entries.resize(count - linear_count);
+        std::iota(g.query_entries.begin(), g.query_entries.end(), static_cast<int>(linear_count));
+      }
+      for (size_t i = linear_count; i < count && frozen_iterations > 0; ++i) {
         const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
         const double limit = resolution * v.length;
         const bool small = frozen_iterations > 0 && v.displacement.squaredNorm() <= limit * limit;
@@ -144,7 +150,7 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
     }
     for (size_t i = 0; i < count; ++i) {
       auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-      const double len = v.displacement.norm();
+      const double len = v.displacement_length;
       const double along = len > 0.0 ? -g.forces[i].dot(v.displacement) / len : 0.0;
       v.pressure = v.area > 0.0 ? std::max(0.0, along) / v.area : 0.0;
     }
@@ -730,15 +736,23 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   for (const auto& g : region_.groups()) {
     for (size_t i = 0; i < g.vertices.size(); ++i) {
       const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-      const double len = v.displacement.norm();
+      const double len = v.displacement_length;
       if (len <= 0.0 || v.partner_count == 0) continue;
       const Vec3 dir = v.displacement / len;
       const Vec3 restoring = std::max(0.0, -g.forces[i].dot(dir)) * dir;  // pushes the other body away
       double weights = 0.0;
       for (const auto& p : region_.partners_of(v)) weights += p.weight;
+      // Session 15: a vertex's partners are almost always on one body, so the pair found for the
+      // last partner is taken again without pair_of's look-up (the same pair, the same sums).
+      int last_other = -1;
+      PairContactForce* last_pair = nullptr;
       for (const auto& p : region_.partners_of(v)) {
         const int other = vertices[static_cast<size_t>(p.region_vertex)].body;
-        PairContactForce& pair = pair_of(v.body, other);
+        if (other != last_other) {
+          last_pair = &pair_of(v.body, other);
+          last_other = other;
+        }
+        PairContactForce& pair = *last_pair;
         // The elastic force of v's body acts on the other body, against its own displacement.
         (pair.body_a == other ? pair.elastic_on_a : pair.elastic_on_b) -= (p.weight / weights) * restoring;
       }

@@ -44,6 +44,41 @@ double friction_inverse_mass(const Body& body, int v, const Vec3& t, double dt) 
 
 }  // namespace
 
+// Session 15: the same sums as Eigen's `inertia += m (|r|^2 I - r r^T)`, bit for bit, in six
+// entries instead of nine. Eigen evaluates that expression entry by entry as m * (|r|^2 I_ij -
+// r_i r_j) (the outer product into a temporary first, so each r_i r_j is one correctly rounded
+// product); r_i r_j = r_j r_i exactly, so (i, j) and (j, i) receive the same terms in the same order
+// and the lower triangle is copied at the end. Off the diagonal I_ij = 0 and |r|^2 * 0 = +0 for a
+// finite |r|^2, so the term is spelled as Eigen computes it, 0.0 - r_i r_j. A kinematic or sleeping
+// body is no longer scanned for fixed vertices (it is not free either way); 7 instructions per
+// vertex of the floor every step. Test: RigidModesPrepare.IsEigensInertiaExpressionBitForBit.
+void RigidModes::prepare(const Body& body) {
+  if (ready) return;
+  ready = true;
+  free = !body.is_kinematic() && !body.is_sleeping() &&
+         std::none_of(body.fixed.begin(), body.fixed.end(), [](char f) { return f != 0; });
+  if (!free) return;
+  for (size_t i = 0; i < body.positions.size(); ++i) {
+    mass += body.masses[i];
+    centre += body.masses[i] * body.positions[i];
+  }
+  centre /= mass;
+  double xx = 0.0, yy = 0.0, zz = 0.0, xy = 0.0, xz = 0.0, yz = 0.0;
+  for (size_t i = 0; i < body.positions.size(); ++i) {
+    const Vec3 r = body.positions[i] - centre;
+    const double m = body.masses[i], squared = r.squaredNorm();
+    xx += m * (squared - r.x() * r.x());
+    yy += m * (squared - r.y() * r.y());
+    zz += m * (squared - r.z() * r.z());
+    xy += m * (0.0 - r.x() * r.y());
+    xz += m * (0.0 - r.x() * r.z());
+    yz += m * (0.0 - r.y() * r.z());
+  }
+  Eigen::Matrix3d inertia;
+  inertia << xx, xy, xz, xy, yy, yz, xz, yz, zz;
+  inverse_inertia = inertia.completeOrthogonalDecomposition().pseudoInverse();
+}
+
 void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<const VertexContact> contacts,
                                    double dt, bool friction, std::span<const double> held_normal_impulse,
                                    size_t lingering_begin, std::vector<ContactImpulse>& impulses,
@@ -70,11 +105,15 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     if (normal.squaredNorm() == 0.0) continue;
 
     const double w_x = inverse_mass(m, contact.vertex);
+    // The triangle's inverse masses once per contact (session 15: apply() and the take-back asked
+    // inverse_mass again per vertex and impulse, a division each; the same values).
+    std::array<double, 3> w_y{};
     double w_p = 0.0;
     Vec3 v_p = Vec3::Zero();
     for (int k = 0; k < 3; ++k) {
       const int y = tri[static_cast<size_t>(k)];
-      w_p += b[k] * b[k] * inverse_mass(n, y);
+      w_y[static_cast<size_t>(k)] = inverse_mass(n, y);
+      w_p += b[k] * b[k] * w_y[static_cast<size_t>(k)];
       v_p += b[k] * n.velocities[static_cast<size_t>(y)];
     }
     const double w_sum = w_x + w_p;
@@ -99,7 +138,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       }
       for (int k = 0; k < 3; ++k) {
         const int y = tri[static_cast<size_t>(k)];
-        const double wy = inverse_mass(n, y);
+        const double wy = w_y[static_cast<size_t>(k)];
         if (wy == 0.0 || b[k] == 0.0) continue;
         // Distribute so the contact point's velocity changes by -w_p j (minimum-norm split).
         const Vec3 dv = -b[k] * wy * j;
@@ -146,7 +185,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       } else {
         for (int k = 0; k < 3; ++k) {
           const int y = tri[static_cast<size_t>(k)];
-          n.velocities[static_cast<size_t>(y)] -= b[k] * inverse_mass(n, y) * j;
+          n.velocities[static_cast<size_t>(y)] -= b[k] * w_y[static_cast<size_t>(k)] * j;
         }
       }
       vn = 0.0;
@@ -175,7 +214,7 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
       for (int k = 0; k < 3; ++k) {
         const int y = tri[static_cast<size_t>(k)];
         wf_y[static_cast<size_t>(k)] = friction_inverse_mass(n, y, tangent, dt);
-        compliant = compliant || wf_y[static_cast<size_t>(k)] != inverse_mass(n, y);
+        compliant = compliant || wf_y[static_cast<size_t>(k)] != w_y[static_cast<size_t>(k)];
         wf_p += b[k] * b[k] * wf_y[static_cast<size_t>(k)];
       }
     }

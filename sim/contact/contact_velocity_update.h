@@ -44,24 +44,8 @@ struct RigidModes {
   Vec3 centre = Vec3::Zero();
   Eigen::Matrix3d inverse_inertia = Eigen::Matrix3d::Zero();
   Vec3 dv = Vec3::Zero(), domega = Vec3::Zero();
-  void prepare(const Body& body) {
-    if (ready) return;
-    ready = true;
-    free = !body.is_kinematic() && !body.is_sleeping();
-    for (char f : body.fixed) free = free && f == 0;
-    if (!free) return;
-    for (size_t i = 0; i < body.positions.size(); ++i) {
-      mass += body.masses[i];
-      centre += body.masses[i] * body.positions[i];
-    }
-    centre /= mass;
-    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
-    for (size_t i = 0; i < body.positions.size(); ++i) {
-      const Vec3 r = body.positions[i] - centre;
-      inertia += body.masses[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
-    }
-    inverse_inertia = inertia.completeOrthogonalDecomposition().pseudoInverse();
-  }
+  /// Fills mass, centre and inverse inertia from the body's current positions (once per pass).
+  void prepare(const Body& body);
   Vec3 velocity_at(const Vec3& x) const { return dv + domega.cross(x - centre); }
   double inverse_mass_at(const Vec3& x, const Vec3& n) const {
     const Vec3 rn = (x - centre).cross(n);

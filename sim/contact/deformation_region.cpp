@@ -149,17 +149,22 @@ void DeformationRegion::build(std::span<Body* const> bodies, std::span<const Ver
   // Geometric growth (reserve(n) would set the capacity to exactly n, so every step with a region
   // one partner larger than any before would reallocate).
   if (partners_.capacity() < triples.size()) partners_.reserve(2 * triples.size());
+  // Session 15: the rows written by index after one resize (push_back's capacity test and end
+  // pointer store per triple were ~40% of this loop); the same entries in the same places.
+  partners_.resize(triples.size());
   for (size_t i = 0; i < triples.size(); ++i) {
-    auto& v = vertices_[static_cast<size_t>(triples[i].owner)];
-    if (i == 0 || triples[i - 1].owner != triples[i].owner) v.partner_begin = static_cast<int>(partners_.size());
+    const Triple& t = triples[i];
+    auto& v = vertices_[static_cast<size_t>(t.owner)];
+    if (i == 0 || triples[i - 1].owner != t.owner) v.partner_begin = static_cast<int>(i);
     v.partner_count++;
-    partners_.push_back({triples[i].partner, triples[i].weight});
+    partners_[i] = {t.partner, t.weight};
   }
 
   for (size_t i = 0; i < vertices_.size(); ++i) {
     auto& v = vertices_[i];
     if (!v.colliding) denominator[i] += 1.0;  // Eq. 1's "+1" with d = 0
     v.displacement = denominator[i] > 0.0 ? Vec3(numerator[i] / denominator[i]) : Vec3::Zero();
+    v.displacement_length = v.displacement.norm();
     // An immovable vertex's pressure is never compared (it does not search, and is not evaluated).
     if (!v.immovable) {
       const Body& b = *bodies[static_cast<size_t>(v.body)];

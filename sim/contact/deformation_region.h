@@ -41,6 +41,7 @@ struct DisplacementVertex {
   int vertex = -1;
   Vec3 rest_of_step = Vec3::Zero();  ///< x before the response (m)
   Vec3 displacement = Vec3::Zero();  ///< s, Eq. 1 (m)
+  double displacement_length = 0.0;  ///< |s| (m), set with s by build(): read per entry and evaluation
   double fraction = 0.0;             ///< lambda: the vertex sits at x + lambda s
   double area = 0.0;                 ///< comparison area (m^2), see comparison_area()
   double length = 0.0;               ///< local edge length (m): sqrt of a third of the adjacent surface area
