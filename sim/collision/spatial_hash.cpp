@@ -83,13 +83,21 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   // A vertex outside b's bounds is in none of its tets (each tet's box lies inside them). The grid's
   // cells are as large as the body's tets, so without this a dish wall's grid reaches far into the
   // dish and lists every fruit vertex there against each of its tets (session 11).
+  // Partners are read body by body through their runs of hashed_ (the same order as one pass over
+  // it), and a partner none of whose inserted vertices can be inside b's bounds is skipped whole:
+  // in the piled dish each box used to read every inserted fruit vertex (session 15).
   const Aabb& own = body_bounds_[i];
-  for (const HashedVertex& hv : hashed_) {
-    if (!partner_[static_cast<size_t>(hv.body)]) continue;
-    if ((hv.x.array() < own.min.array()).any() || (hv.x.array() > own.max.array()).any()) continue;
-    for (int t : grid.tets_near(inverse * (hv.x - pose.translation))) {
-      ++stats_.tets_visited;
-      TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, stats_, candidates_);
+  const int body_count = static_cast<int>(hashed_begin_.size()) - 1;
+  for (int a = 0; a < body_count; ++a) {
+    const auto ai = static_cast<size_t>(a);
+    if (!partner_[ai] || !vertex_bounds_[ai].overlaps(own)) continue;
+    for (int e = hashed_begin_[ai]; e < hashed_begin_[ai + 1]; ++e) {
+      const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
+      if ((hv.x.array() < own.min.array()).any() || (hv.x.array() > own.max.array()).any()) continue;
+      for (int t : grid.tets_near(inverse * (hv.x - pose.translation))) {
+        ++stats_.tets_visited;
+        TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, stats_, candidates_);
+      }
     }
   }
   return true;
@@ -362,9 +370,20 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         }
         continue;
       }
+      // Only the tet's marked cells are looked up: an unmarked cell holds no partner vertex, and
+      // its bucket's other entries (own body, other cells) are never tested (session 15).
+      const bool bitmap = occupied_dims_[0] != 0;
+      const auto ny = static_cast<size_t>(occupied_dims_[1]), nz = static_cast<size_t>(occupied_dims_[2]);
       for (int i = i0; i <= i1; ++i) {
         for (int j = j0; j <= j1; ++j) {
+          const size_t row = bitmap ? (static_cast<size_t>(i - occupied_origin_[0]) * ny +
+                                       static_cast<size_t>(j - occupied_origin_[1])) * nz
+                                    : 0;
           for (int k = k0; k <= k1; ++k) {
+            if (bitmap) {
+              const size_t bit = row + static_cast<size_t>(k - occupied_origin_[2]);
+              if (((occupied_[bit / 64] >> (bit % 64)) & 1u) == 0) continue;
+            }
             ++stats_.cells_visited;
             const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
             const Bucket& bucket = buckets_[h];
