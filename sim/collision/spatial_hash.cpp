@@ -7,6 +7,15 @@
 
 #include "sim/collision/tet_barycentric.h"
 
+// Session 15 (the piled fruit dish; design note in spatial_hash.h). The occupancy bitmap is kept on
+// half cells: occupied_, occupied_origin_ and occupied_dims_ count half cells (edge l / 2), and a
+// partner vertex is marked only inside b's bounds. A tet is skipped when no half cell of its box is
+// marked, and of a tet that passes, a cell is looked up only when a marked half cell of it lies in
+// the tet's box. The rigid pass reads the inserted vertices partner by partner and skips a partner
+// whose inserted vertices' bounds miss the rigid body's. Exact: every skipped look-up or vertex is
+// one that could not be inside a tet, so `candidates_` is the same sequence (docs/collision-
+// detection.md "Session 15").
+
 namespace pliant {
 namespace {
 

@@ -29,11 +29,6 @@
 // a pile every fruit lies inside the union of its partners' bounds, but only its rim's cells hold
 // a neighbour's vertex. A body no partner's inserted vertices reach is skipped whole. Exact: the
 // skipped tets are those whose look-ups would find nothing.
-// Session 15: the bitmap is kept on half cells (a partner vertex is marked only inside b's bounds),
-// and of a tet that passes, only the cells with a marked half cell inside the tet's box are looked
-// up; the rigid pass reads the inserted vertices partner by partner and skips a partner whose
-// inserted vertices' bounds miss the rigid body's. Exact: every skipped look-up or vertex is one
-// that could not be inside a tet, so `candidates_` is the same sequence.
 #pragma once
 
 #include <cstdint>
@@ -60,7 +55,7 @@ struct SpatialHashStats {
   int table_size = 0;        ///< prime number of buckets
   double cell_size = 0.0;    ///< edge of a cubic cell (m)
   long long tets_visited = 0;       ///< tets whose cells were looked up in pass 2
-  long long cells_visited = 0;      ///< cell lookups in pass 2 (cells with a marked half cell in the tet's box)
+  long long cells_visited = 0;      ///< cell lookups in pass 2
   long long inside_tests = 0;       ///< barycentric tests performed
   long long candidates_found = 0;   ///< (vertex, tet) pairs found inside, before de-duplication
   long long entries_scanned = 0;    ///< bucket entries read in pass 2 (skipped body runs not counted)
@@ -121,16 +116,15 @@ class SpatialHash {
   std::vector<VertexInTet> candidates_;
   std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
   std::vector<int> hashed_begin_;       ///< per body (and one past the last): its first entry in hashed_
-  std::vector<std::uint64_t> occupied_;  ///< pass 2 scratch: bitmap of the penetrated body's half cells holding a partner vertex
-  int occupied_origin_[3] = {0, 0, 0};  ///< half cell of the bitmap's bit 0
-  int occupied_dims_[3] = {0, 0, 0};    ///< half cells of the bitmap along x, y, z (0: no bitmap, no skipping)
+  std::vector<std::uint64_t> occupied_;  ///< pass 2 scratch: bitmap of the penetrated body's cells holding a partner vertex
+  int occupied_origin_[3] = {0, 0, 0};  ///< cell of the bitmap's bit 0
+  int occupied_dims_[3] = {0, 0, 0};    ///< cells of the bitmap along x, y, z (0: no bitmap, no skipping)
 
-  /// Marks the half cells of body b's bounds that hold an inserted vertex of a partner of b
-  /// (partner_) inside those bounds; returns how many vertices were marked, or -1 and no bitmap when
-  /// b's bounds span too many half cells (or lie too far out for half cells to nest in cells).
+  /// Marks the cells of body b's bounds that hold an inserted vertex of a partner of b (partner_);
+  /// returns how many vertices were marked. Leaves no bitmap when b's bounds span too many cells.
   long long mark_occupied_cells(int b, double inv_l);
-  /// Whether some half cell of [i0, i1] x [j0, j1] x [k0, k1] (inside b's bounds) holds a partner
-  /// vertex; needs the bitmap.
+  /// Whether some cell of [i0, i1] x [j0, j1] x [k0, k1] (inside b's bounds) holds a partner vertex;
+  /// true when there is no bitmap.
   bool any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const;
 
   /// Pass 2 for a rigid body b from the inserted partner vertices (each looked up in b's rest-frame
