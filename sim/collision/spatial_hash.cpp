@@ -7,32 +7,16 @@
 
 #include "sim/collision/tet_barycentric.h"
 
-// Session 15 (the piled fruit dish; design note in spatial_hash.h). The occupancy bitmap is kept on
-// half cells: occupied_, occupied_origin_ and occupied_dims_ count half cells (edge l / 2), and a
-// partner vertex is marked only inside b's bounds. A tet is skipped when no half cell of its box is
-// marked, and of a tet that passes, a cell is looked up only when a marked half cell of it lies in
-// the tet's box. The rigid pass reads the inserted vertices partner by partner and skips a partner
-// whose inserted vertices' bounds miss the rigid body's. Exact: every skipped look-up or vertex is
-// one that could not be inside a tet, so `candidates_` is the same sequence (docs/collision-
-// detection.md "Session 15").
-
 namespace pliant {
 namespace {
 
 // Cell coordinate of x (m) for cells of inverse size inv_l: floor, clamped so that absurd positions
 // cannot overflow an int (they land in the outermost cell instead). Always inlined: GCC otherwise
-// calls it from pass 2 (six calls per tet, ~0.6 M instructions a step in the piled dish, session 15).
+// calls it from pass 2 (six calls per tet, session 15).
 [[gnu::always_inline]] inline int cell_coordinate(double x, double inv_l) {
   const double c = std::floor(x * inv_l);
   // max(lo, min(c, hi)) is std::clamp for every number and maps NaN to lo (std::clamp returns NaN,
   // and casting NaN to int is undefined): a non-finite vertex gets a defined, far-away cell.
-  return static_cast<int>(std::max(-1.0e9, std::min(c, 1.0e9)));
-}
-
-// Half-cell coordinate of x: floor(2 (x inv_l)), clamped like cell_coordinate. Doubling the same
-// rounded product is exact, so (unclamped) the half cell h of x lies in cell h >> 1 = floor(x inv_l).
-[[gnu::always_inline]] inline int half_cell_coordinate(double x, double inv_l) {
-  const double c = std::floor(2.0 * (x * inv_l));
   return static_cast<int>(std::max(-1.0e9, std::min(c, 1.0e9)));
 }
 
@@ -121,28 +105,21 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
 }
 
 long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
-  // The bitmap is kept on half cells (session 15): a tet's box spans ~2 cells a side but ~3 half
-  // cells, so fewer tets and cells pass for a partner vertex that is near but outside the box.
   const Aabb& own = body_bounds_[static_cast<size_t>(b)];
   int hi[3];
   double cells = 1.0;
-  occupied_dims_[0] = occupied_dims_[1] = occupied_dims_[2] = 0;
   for (int k = 0; k < 3; ++k) {
-    // Half cells far from the clamp only, so that a half cell h lies in cell h >> 1; else no
-    // bitmap (nothing is skipped).
-    if (!(std::abs(2.0 * (own.min[k] * inv_l)) < 5.0e8 && std::abs(2.0 * (own.max[k] * inv_l)) < 5.0e8)) {
-      return own.empty() ? 0 : -1;
-    }
-    occupied_origin_[k] = half_cell_coordinate(own.min[k], inv_l);
-    hi[k] = half_cell_coordinate(own.max[k], inv_l);
+    occupied_origin_[k] = cell_coordinate(own.min[k], inv_l);
+    hi[k] = cell_coordinate(own.max[k], inv_l);
     cells *= static_cast<double>(hi[k]) - occupied_origin_[k] + 1.0;
   }
-  // A bitmap of more than 64 bits (8 half cells a cell) per inserted vertex would cost more to clear
-  // than its look-ups: none then (a body much larger than its share of the vertices), no tet skipped.
+  // A bitmap of more than 8 bits per inserted vertex would cost more to clear than its look-ups:
+  // none then (a body much larger than its share of the vertices), and no tet is skipped.
+  occupied_dims_[0] = occupied_dims_[1] = occupied_dims_[2] = 0;
   // No cell at all: b's bounds are empty (every vertex non-finite: Aabb::extend drops NaN), so no
   // partner vertex can lie in one of its tets. (A negative count cast to size_t was std::bad_alloc.)
   if (!(cells >= 1.0)) return 0;
-  if (cells > std::max(32768.0, 64.0 * static_cast<double>(hashed_.size()))) return -1;
+  if (cells > std::max(4096.0, 8.0 * static_cast<double>(hashed_.size()))) return -1;
   for (int k = 0; k < 3; ++k) occupied_dims_[k] = hi[k] - occupied_origin_[k] + 1;
   occupied_.assign((static_cast<size_t>(cells) + 63) / 64, 0);
   long long marked = 0;
@@ -151,11 +128,11 @@ long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
     // A partner vertex inside a tet of b lies in b's bounds, hence in both boxes.
     if (!partner_[static_cast<size_t>(a)] || !vertex_bounds_[static_cast<size_t>(a)].overlaps(own)) continue;
     for (int e = hashed_begin_[static_cast<size_t>(a)]; e < hashed_begin_[static_cast<size_t>(a) + 1]; ++e) {
-      // Outside b's bounds: in no tet of b (a NaN coordinate fails too).
-      const Vec3& x = hashed_[static_cast<size_t>(e)].x;
-      if (!((x.array() >= own.min.array()).all() && (x.array() <= own.max.array()).all())) continue;
-      const int c[3] = {half_cell_coordinate(x.x(), inv_l), half_cell_coordinate(x.y(), inv_l),
-                        half_cell_coordinate(x.z(), inv_l)};
+      const int* c = hashed_[static_cast<size_t>(e)].cell;
+      if (c[0] < occupied_origin_[0] || c[0] > hi[0] || c[1] < occupied_origin_[1] || c[1] > hi[1] ||
+          c[2] < occupied_origin_[2] || c[2] > hi[2]) {
+        continue;
+      }
       const auto bit = (static_cast<size_t>(c[0] - occupied_origin_[0]) * static_cast<size_t>(occupied_dims_[1]) +
                         static_cast<size_t>(c[1] - occupied_origin_[1])) *
                            static_cast<size_t>(occupied_dims_[2]) +
@@ -168,7 +145,7 @@ long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
 }
 
 bool SpatialHash::any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const {
-  assert(occupied_dims_[0] != 0);
+  if (occupied_dims_[0] == 0) return true;
   assert(i0 >= occupied_origin_[0] && i1 < occupied_origin_[0] + occupied_dims_[0]);
   assert(j0 >= occupied_origin_[1] && j1 < occupied_origin_[1] + occupied_dims_[1]);
   assert(k0 >= occupied_origin_[2] && k1 < occupied_origin_[2] + occupied_dims_[2]);
@@ -348,9 +325,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     if (partners.empty()) continue;
     if (cb.rigid_pose != nullptr && rigid_pass(b, cb)) continue;
     // The cells of b holding a partner vertex; none: no tet of b can hold one.
-    const long long marked = mark_occupied_cells(b, inv_l);
-    if (marked == 0) continue;
-    const bool bitmap = marked > 0;
+    if (mark_occupied_cells(b, inv_l) == 0) continue;
     // Cohen-Sutherland out-codes against the partners' box: a tet all of whose corners lie beyond
     // one of its faces cannot overlap it (the same decision as the box test below, without the box).
     const int nv = cb.mesh->vertex_count();
@@ -375,23 +350,13 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       TetUnderTest under_test(cb, b, t);
       const Aabb& box = under_test.box;
       if (!box.overlaps(partners)) continue;
-      int i0, i1, j0, j1, k0, k1;  // the cells of the tet's box
-      int half[6] = {0, 0, 0, 0, 0, 0};  // its half cells (with a bitmap): x from, to, y from, to, z from, to
-      if (bitmap) {
-        half[0] = half_cell_coordinate(box.min.x(), inv_l), half[1] = half_cell_coordinate(box.max.x(), inv_l);
-        half[2] = half_cell_coordinate(box.min.y(), inv_l), half[3] = half_cell_coordinate(box.max.y(), inv_l);
-        half[4] = half_cell_coordinate(box.min.z(), inv_l), half[5] = half_cell_coordinate(box.max.z(), inv_l);
-        // A partner vertex inside the tet lies in one of its half cells: none marked, nothing to find.
-        if (!any_cell_occupied(half[0], half[1], half[2], half[3], half[4], half[5])) {
-          ++stats_.tets_skipped_unoccupied;
-          continue;
-        }
-        // The cells: h >> 1 is cell_coordinate's floor(x inv_l) (no clamping inside b's bounds).
-        i0 = half[0] >> 1, i1 = half[1] >> 1, j0 = half[2] >> 1, j1 = half[3] >> 1, k0 = half[4] >> 1, k1 = half[5] >> 1;
-      } else {
-        i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
-        j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
-        k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
+      const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
+      const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
+      const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
+      // A partner vertex inside the tet lies in one of its cells: none marked, nothing to find.
+      if (!any_cell_occupied(i0, i1, j0, j1, k0, k1)) {
+        ++stats_.tets_skipped_unoccupied;
+        continue;
       }
       ++stats_.tets_visited;
       // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
@@ -406,18 +371,12 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
         }
         continue;
       }
-      // Only cells with a marked half cell inside the tet's box are looked up: the others hold no
-      // partner vertex in the box, and their buckets' entries would all be rejected (session 15).
       for (int i = i0; i <= i1; ++i) {
         for (int j = j0; j <= j1; ++j) {
           for (int k = k0; k <= k1; ++k) {
-            if (bitmap && !any_cell_occupied(std::max(2 * i, half[0]), std::min(2 * i + 1, half[1]),
-                                             std::max(2 * j, half[2]), std::min(2 * j + 1, half[3]),
-                                             std::max(2 * k, half[4]), std::min(2 * k + 1, half[5]))) {
-              continue;
-            }
             ++stats_.cells_visited;
-            const Bucket& bucket = buckets_[static_cast<size_t>(hash_cell(i, j, k, n))];
+            const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
+            const Bucket& bucket = buckets_[h];
             if (bucket.stamp != stamp_) continue;
             for (int e = bucket.head; e >= 0;) {
               const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
