@@ -262,6 +262,60 @@ TEST(SpatialHash, PileSkipsTetsWithoutPartnerVerticesAndMatchesBruteForce) {
   EXPECT_GT(skipped, visited);  // and most tets were skipped, exactly
 }
 
+// The piled fruit dish in small (session 15): the 27-ball pile sunk 2 mm into a rigid floor and two
+// rigid walls of one cell each (the dish's boxes), plus a rigid wall no ball reaches. Pass 2 looks
+// up only the marked cells of a ball's tets, and each box's rigid pass reads only the partners whose
+// inserted vertices can reach its bounds. The result must be the brute force's entry for entry, and
+// the boxes' pass the cell walk's (poses not given) bit for bit.
+TEST(SpatialHash, PileInRigidDishMatchesBruteForceAndTheCellWalk) {
+  const auto ball = make_sphere_mesh({0.015, 40, 2});
+  const auto floor = make_box_mesh({Vec3(0.12, 0.12, 0.02), 1, 1, 1});
+  const auto wall_x = make_box_mesh({Vec3(0.02, 0.12, 0.12), 1, 1, 1});
+  const auto wall_y = make_box_mesh({Vec3(0.12, 0.02, 0.12), 1, 1, 1});
+  std::mt19937 rng(1507);
+  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+  const double spacing = 0.0285;  // diameter 0.03: neighbours overlap ~1.5 mm
+  std::vector<std::vector<Vec3>> x;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 centre = spacing * Vec3(i, j, k) + Vec3(jitter(rng), jitter(rng), jitter(rng));
+        x.push_back(posed(*ball, random_rotation(rng), centre));
+      }
+    }
+  }
+  // Box faces 13 mm from the lattice's first row of centres: balls of the first row sink ~2 mm.
+  const double c = spacing;  // the lattice's middle
+  std::vector<Pose> poses(4);
+  poses[0].translation = Vec3(c, c, -0.023);   // floor
+  poses[1].translation = Vec3(-0.023, c, c);   // wall at x-
+  poses[2].translation = Vec3(c, -0.023, c);   // wall at y-
+  poses[3].translation = Vec3(0.3, c, c);      // a wall far away
+  const TetMesh* box_meshes[4] = {floor.get(), wall_x.get(), wall_y.get(), wall_x.get()};
+  for (int w = 0; w < 4; ++w) x.push_back(posed(*box_meshes[w], Quat::Identity(), poses[static_cast<size_t>(w)].translation));
+  std::vector<CollisionBody> bodies = bodies_of(*ball, x);
+  for (int w = 0; w < 4; ++w) bodies[static_cast<size_t>(27 + w)].mesh = box_meshes[w];
+  CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  for (int a = 27; a < 31; ++a) {
+    for (int b = a + 1; b < 31; ++b) filter.set(a, b, false);  // boxes never touch each other
+  }
+  SpatialHash hash;
+  std::vector<VertexInTet> walk, rigid;
+  hash.detect(bodies, filter, walk);
+  for (int w = 0; w < 4; ++w) bodies[static_cast<size_t>(27 + w)].rigid_pose = &poses[static_cast<size_t>(w)];
+  hash.detect(bodies, filter, rigid);
+  const auto oracle = brute_force(bodies, filter);
+  expect_same(rigid, oracle, bodies);
+  expect_same(walk, oracle, bodies);
+  int in_boxes = 0, boxes_in = 0;
+  for (const VertexInTet& v : oracle) {
+    in_boxes += v.penetrated_body >= 27 ? 1 : 0;
+    boxes_in += v.body >= 27 ? 1 : 0;
+  }
+  EXPECT_GT(in_boxes, 20);  // ball vertices really lie in the near boxes
+  EXPECT_GT(static_cast<int>(oracle.size()) - in_boxes - boxes_in, 50) << in_boxes << " " << boxes_in;  // and in each other
+}
+
 // A body that integrated to NaN or infinity must not take the hash down: the occupancy bitmap was
 // sized from its bounds (a NaN cell coordinate, then a negative cell count cast to size_t:
 // std::bad_alloc). Non-finite vertices are found in no tet and their tets contain nothing; every
