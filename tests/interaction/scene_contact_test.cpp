@@ -60,7 +60,7 @@ TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   const Scene charging = parse_scene(j, "probe_coarse.json", ".");
   EXPECT_TRUE(charging.world.contact.limit_friction_move);
   EXPECT_TRUE(instantiate_scene(charging).world->settings().contact.limit_friction_move_charges_returns);
-  for (const nlohmann::json bad : {nlohmann::json(0.5), nlohmann::json("charge")}) {
+  for (const nlohmann::json& bad : {nlohmann::json(0.5), nlohmann::json("charge")}) {
     j["contact"]["limit_friction_move"] = bad;
     try {
       parse_scene(j, "probe_coarse.json", ".");
@@ -69,6 +69,20 @@ TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
       EXPECT_NE(std::string(e.what()).find("/contact/limit_friction_move"), std::string::npos) << e.what();
     }
   }
+}
+
+// The membrane stack ships the limit charging returns and the centre wake rule (session 15: with them
+// it comes to rest at 1 ms without a churning bottom pair; docs/experiments.md, and the long test
+// MembraneChurnLedger.LongTheStackRestsWhenTheMembraneLayerIsBelowCfl1 for the physics); the probe
+// keeps the library default (the limit would change its tool force).
+TEST(SceneFormat, MembraneStackShipsTheLimitChargingReturnsAndTheProbeDoesNot) {
+  const Scene stack = load_scene(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/membrane_stack.json");
+  EXPECT_TRUE(stack.world.contact.limit_friction_move);
+  EXPECT_TRUE(stack.world.contact.limit_friction_move_charges_returns);
+  EXPECT_TRUE(stack.world.sleep.wake_on_centre_motion);
+  const Scene probe = load_scene(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/probe.json");
+  EXPECT_FALSE(probe.world.contact.limit_friction_move);
+  EXPECT_FALSE(probe.world.contact.limit_friction_move_charges_returns);
 }
 
 // contact.deformable_pair_held_force_fraction (docs/contact-surface.md "Resting churn, session 9"):

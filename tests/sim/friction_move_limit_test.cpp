@@ -286,7 +286,9 @@ TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
   EXPECT_NEAR(kept, 1.0 / omega_dt, 3e-3 / omega_dt);
   EXPECT_NEAR((charged[static_cast<size_t>(top)] - rest).tail<2>().norm(), 0.0, 1e-15);
   for (size_t v = 0; v < full.size(); ++v) {
-    if (static_cast<int>(v) != top) EXPECT_EQ(charged[v], full[v]) << v;
+    if (static_cast<int>(v) != top) {
+      EXPECT_EQ(charged[v], full[v]) << v;
+    }
   }
 }
 
