@@ -121,19 +121,22 @@ std::vector<Case> full_matrix() {
   }
   // Opt-in settings for measuring them on the whole matrix (session 9, docs/stability.md M7, M10):
   // PLIANT_STABILITY_OPT_IN, a comma-separated list of anchored (ContactSettings::
-  // anchored_friction_compliance), limit (limit_friction_move), release
-  // (release_distant_held_contacts), frictionless (friction off), on the contact-surface cases.
+  // anchored_friction_compliance), limit (limit_friction_move), charge_returns (the limit charging
+  // returns, session 15), release (release_distant_held_contacts), frictionless (friction off), on
+  // the contact-surface cases.
   if (const char* env = std::getenv("PLIANT_STABILITY_OPT_IN"); env != nullptr) {
-    bool anchored = false, limit = false, release = false, frictionless = false;
+    bool anchored = false, limit = false, charge_returns = false, release = false, frictionless = false;
     std::stringstream list(env);
     for (std::string name; std::getline(list, name, ',');) {
       bool* flag = name == "anchored" ? &anchored
                    : name == "limit"  ? &limit
+                   : name == "charge_returns" ? &charge_returns
                    : name == "release" ? &release
                    : name == "frictionless" ? &frictionless
                                             : nullptr;
       if (flag == nullptr) {
-        std::fprintf(stderr, "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, release, frictionless)\n",
+        std::fprintf(stderr,
+                     "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, charge_returns, release, frictionless)\n",
                      name.c_str());
         std::exit(2);
       }
@@ -141,10 +144,12 @@ std::vector<Case> full_matrix() {
     }
     for (Case& c : cases) {
       if (c.method != ContactMethod::contact_surface) continue;
-      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, release, frictionless](ContactSettings& s) {
+      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, charge_returns, release,
+                         frictionless](ContactSettings& s) {
         if (tweak) tweak(s);
         s.anchored_friction_compliance = s.anchored_friction_compliance || anchored;
-        s.limit_friction_move = s.limit_friction_move || limit;
+        s.limit_friction_move = s.limit_friction_move || limit || charge_returns;
+        s.limit_friction_move_charges_returns = s.limit_friction_move_charges_returns || charge_returns;
         s.release_distant_held_contacts = s.release_distant_held_contacts || release;
         s.friction = s.friction && !frictionless;
       };
