@@ -116,14 +116,15 @@ void evaluate_pressures(std::span<Body* const> bodies, DeformationRegion& region
                                 g.vertices.begin() + static_cast<std::ptrdiff_t>(count));
         g.query_entries.resize(count - linear_count);
         std::iota(g.query_entries.begin(), g.query_entries.end(), static_cast<int>(linear_count));
-      }
-      for (size_t i = linear_count; i < count && frozen_iterations > 0; ++i) {
-        const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-        const double limit = resolution * v.length;
-        const bool small = frozen_iterations > 0 && v.displacement.squaredNorm() <= limit * limit;
-        if (small != frozen) continue;
-        g.query_vertices.push_back(g.vertices[i]);
-        g.query_entries.push_back(static_cast<int>(i));
+      } else {  // small displacements in the frozen pass, the others in the exact one
+        for (size_t i = linear_count; i < count; ++i) {
+          const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+          const double limit = resolution * v.length;
+          const bool small = v.displacement.squaredNorm() <= limit * limit;
+          if (small != frozen) continue;
+          g.query_vertices.push_back(g.vertices[i]);
+          g.query_entries.push_back(static_cast<int>(i));
+        }
       }
       if (g.query_vertices.empty()) continue;
       g.query_forces.resize(g.query_vertices.size());
