@@ -2,10 +2,11 @@
 // for counting its instructions (valgrind --tool=callgrind) without a benchmark's repetitions: the
 // benchmark beam of models_bench (75 x 4 x 4 Kuhn cells, 1,900 nodes, 7,200 tets, E = 1e5 Pa,
 // nu = 0.45, sagging under gravity from rest, dt 10 ms) advanced 60 times with SSOR-PCG at tolerance
-// 1e-12 and an iteration cap of 20 (the benchmark's setting), 60 (still cap-bound) and 200 (ends at the tolerance). After every advance the
-// bytes of x and v go into an FNV-1a 64-bit hash; the program prints, per cap, the hash, the CG
-// iterations summed over the 60 advances and the last advance's relative residual. Two builds whose
-// lines agree computed the same beam bit for bit (on one machine and compiler).
+// 1e-12 and an iteration cap of 20 (the benchmark's setting), 60 (still cap-bound) and 200 (ends at
+// the tolerance). After every advance the bytes of x and v go into an FNV-1a 64-bit hash; the
+// program prints, per cap, the hash, the CG iterations summed over the 60 advances and the last
+// advance's relative residual. Two builds whose lines agree computed the same beam bit for bit (on
+// one machine and compiler).
 // Run: build/bench/beam_hash          (all three caps)
 //      build/bench/beam_hash one      (cap 20 only: the benchmark's step, for callgrind)
 #include <cstdint>
