@@ -301,12 +301,12 @@ struct BackwardSweepData {
 constexpr size_t kPrefetchRows = 8;
 
 /// Row i of the backward sweep: t_i = D_i^-1 (p_i - s sum_{j > i} K'_ij t_j), or p_i on a fixed row;
-/// zeroes acc_i when the forward sweep scatters into it (kZeroAcc). kInner (session 16; rows 1 ..
-/// n - 2): p_i and D_i^-1's third column are loaded whole (their lane 3 is row i + 1's first entry:
-/// it reaches only lane 3 of the result, which mat_vec never reads and the store drops), and t_i
-/// is stored as four lanes one entry down, its first lane (t_i0 again) landing on row i - 1's last
-/// entry, which row i - 1 stores next, before anything reads it (row i - 1 gathers t_j, j >= i, only);
-/// two instructions instead of three. Lanes 0..2 are the masked path's bit for bit.
+/// zeroes acc_i when the forward sweep scatters into it (kZeroAcc). kInner (session 16; every row
+/// but the last): p_i and D_i^-1's third column are loaded whole, one instruction fewer each (their lane 3
+/// is row i + 1's first entry: it reaches only lane 3 of the result, which mat_vec never reads and
+/// store3 drops). Lanes 0..2 are the masked path's bit for bit. (t_i stored as four lanes one entry
+/// down, a lane permute and one store instead of three instructions, was 3% slower in time: the
+/// permute sits on the sweep's serial chain, t_i -> row i - 1's gather; docs/deformation-models.md.)
 template <size_t kStride, bool kZeroAcc, bool kInner>
 PLIANT_AVX2_FMA inline void backward_row(const BackwardSweepData& d, const int* cols, size_t i, const double* p,
                                          double* t, double* acc, __m256d s) {
@@ -318,16 +318,15 @@ PLIANT_AVX2_FMA inline void backward_row(const BackwardSweepData& d, const int* 
   const __m256d a = gather<kStride>(d.blocks, cols, static_cast<size_t>(d.offsets[i]) + 1,
                                     static_cast<size_t>(d.offsets[i + 1]), t);
   if constexpr (kInner) {
-    const __m256d ti = mat_vec_whole(d.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, _mm256_loadu_pd(p + 3 * i)));
-    _mm256_storeu_pd(t + 3 * i - 1, _mm256_permute4x64_pd(ti, 0x90));  // lanes (0, 0, 1, 2)
+    store3(t + 3 * i, mat_vec_whole(d.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, _mm256_loadu_pd(p + 3 * i))));
   } else {
     store3(t + 3 * i, mat_vec(d.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
   }
 }
 
 /// The backward sweep t = (D + L^T)^-1 p, rows descending, each row's blocks prefetched 8 rows
-/// ahead. cols: sys.cols (kStride 3) or sys.col_entries (kStride 1). Session 16: the last row and
-/// row 0 by the masked path, the rows between by the inner one; the rows from n - 2 down to 8
+/// ahead. cols: sys.cols (kStride 3) or sys.col_entries (kStride 1). Session 16: the last row by the
+/// masked path, the rows below it by the inner one; the rows from n - 2 down to 8
 /// prefetch row i - 8's blocks from a running pointer (that row's lines end where row i - 7's begin,
 /// the previous turn's start: the same lines as prefetch_row), the rows below 8 in a loop without
 /// the test.
@@ -355,8 +354,7 @@ PLIANT_AVX2_FMA void backward_sweep(const FusedSsorSystem& sys, const int* cols,
       backward_row<kStride, kZeroAcc, true>(d, cols, i, p, t, acc, s);
     }
   }
-  for (; i >= 1; --i) backward_row<kStride, kZeroAcc, true>(d, cols, i, p, t, acc, s);
-  backward_row<kStride, kZeroAcc, false>(d, cols, 0, p, t, acc, s);
+  for (size_t k = i + 1; k-- > 0;) backward_row<kStride, kZeroAcc, true>(d, cols, k, p, t, acc, s);
 }
 
 }  // namespace

@@ -403,14 +403,15 @@ TEST(FusedSsorKernels, FlatCgUpdateEqualsRowByRowUpdateBitForBit) {
   EXPECT_EQ(checked, 54);
 }
 
-// Session 16: the backward sweep's inner rows (p_i and D_i^-1's third column loaded whole, t_i
-// stored as four lanes one entry down, the prefetch from a running pointer), the forward sweep's
-// whole third columns and fused_cg_update's whole-lane D r stores, on random upper patterns of 1 to
+// Session 16: the backward sweep's inner rows (p_i and D_i^-1's third column loaded whole, the
+// prefetch from a running pointer), the forward sweep's whole third columns and fused_cg_update's
+// whole-lane D r stores, on random upper patterns of 1 to
 // 20 rows (so every boundary of the row loops: the last row, row 0, rows below and above the
 // prefetch distance 8), rows with 0 to 4 upper blocks, random fixed rows keeping their blocks or
 // not. Against session 8's kernels: t, q, p . q (and the accumulator with the scatter sweep) bit for
-// bit; four sentinels before and after t, q, acc and D r untouched (the shifted store must not
-// write before t_0, the whole-lane stores not past 3 n).
+// bit; four sentinels before and after t, q, acc and D r untouched (no store before entry 0, the
+// whole-lane stores not past 3 n). The whole loads must stay inside the exactly sized inputs: run it
+// under valgrind's memcheck after changing them (docs/deformation-models.md, Session 16).
 TEST(FusedSsorKernels, WholeLaneLoadsAndStoresEqualSessionEightsOnSmallPatternsBitForBit) {
   if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
   int checked = 0;
