@@ -70,6 +70,15 @@ PLIANT_AVX2_FMA inline __m256d mat_vec(const double* M, __m256d x) {
   return _mm256_fmadd_pd(load_column3(M + 6), _mm256_permute4x64_pd(x, 0xAA), d);
 }
 
+/// mat_vec with the third column loaded whole (session 16): its lane 3 is the entry after M's last,
+/// which must exist (the next row's block: every row but the last). Lanes 0..2 are mat_vec's bit for
+/// bit (the same products and FMAs); lane 3 differs, and callers that use it must not use this.
+PLIANT_AVX2_FMA inline __m256d mat_vec_whole(const double* M, __m256d x) {
+  const __m256d c = _mm256_mul_pd(_mm256_loadu_pd(M), _mm256_permute4x64_pd(x, 0x00));
+  const __m256d d = _mm256_fmadd_pd(_mm256_loadu_pd(M + 3), _mm256_permute4x64_pd(x, 0x55), c);
+  return _mm256_fmadd_pd(_mm256_loadu_pd(M + 6), _mm256_permute4x64_pd(x, 0xAA), d);
+}
+
 /// Sum of lanes 0..3.
 PLIANT_AVX2_FMA inline double horizontal_sum(__m256d x) {
   const __m128d h = _mm_add_pd(_mm256_castpd256_pd128(x), _mm256_extractf128_pd(x, 1));
@@ -237,21 +246,26 @@ struct ForwardSweepData {
 /// Row i of the gathered forward sweep: q_i and s y_i stored, p_i . q_i added to pq (returned).
 /// kWholeLanes (every row but the last, session 15): q_i and s y_i are stored as four lanes, the
 /// fourth landing on row i + 1's first entry, which row i + 1 stores before anything reads it (its
-/// gather reads s y_j of rows j < i + 1 only).
+/// gather reads s y_j of rows j < i + 1 only). Such a row also has a next row, so D_i's and
+/// D_i^-1's third columns are loaded whole (session 16, mat_vec_whole: one instruction fewer each);
+/// lanes 0..2 are mat_vec's, and the lane 3 this leaves in u (now also a product with the next
+/// row's first entry) is cleared before it reaches q on a fixed row (y's lane 3 is cleared anyway),
+/// so q, s y and p . q do not depend on what the next row holds.
 template <size_t kStride, bool kWholeLanes>
 PLIANT_AVX2_FMA inline __m256d forward_row(const ForwardSweepData& d, size_t i, const double* p, const double* t,
                                            double* q, double* sy, __m256d s, __m256d pq) {
   const __m256d pi = load3(p + 3 * i), ti = load3(t + 3 * i);
-  const __m256d u = _mm256_sub_pd(pi, mat_vec(d.D + 9 * i, ti));
+  const __m256d u = _mm256_sub_pd(pi, kWholeLanes ? mat_vec_whole(d.D + 9 * i, ti) : mat_vec(d.D + 9 * i, ti));
   if (d.fixed[i] != 0) {  // y = u, nothing sent
-    const __m256d qi = _mm256_add_pd(ti, u);
+    const __m256d qi = _mm256_add_pd(ti, kWholeLanes ? clear_lane3(u) : u);
     store_row<kWholeLanes>(q + 3 * i, qi);
     store_row<kWholeLanes>(sy + 3 * i, _mm256_setzero_pd());
     return _mm256_fmadd_pd(pi, qi, pq);
   }
   const __m256d a = gather_lower<kStride>(d.lower, d.rows, static_cast<size_t>(d.offsets[i]),
                                           static_cast<size_t>(d.offsets[i + 1]), sy);
-  const __m256d y = clear_lane3(mat_vec(d.D_inverse + 9 * i, _mm256_sub_pd(u, a)));
+  const __m256d x = _mm256_sub_pd(u, a);
+  const __m256d y = clear_lane3(kWholeLanes ? mat_vec_whole(d.D_inverse + 9 * i, x) : mat_vec(d.D_inverse + 9 * i, x));
   const __m256d qi = _mm256_add_pd(ti, y);
   store_row<kWholeLanes>(q + 3 * i, qi);
   store_row<kWholeLanes>(sy + 3 * i, _mm256_mul_pd(s, y));
@@ -275,31 +289,72 @@ PLIANT_AVX2_FMA double forward_sweep_gathered(const FusedSsorSystem& sys, const 
   return horizontal_sum(pq);
 }
 
+/// The pointers the backward sweep reads, copied out of the system (as ForwardSweepData).
+struct BackwardSweepData {
+  const double* blocks;
+  const int* offsets;
+  const double* D_inverse;
+  const char* fixed;
+};
+
+/// Rows ahead of the backward sweep whose blocks it asks the cache for (session 7).
+constexpr size_t kPrefetchRows = 8;
+
+/// Row i of the backward sweep: t_i = D_i^-1 (p_i - s sum_{j > i} K'_ij t_j), or p_i on a fixed row;
+/// zeroes acc_i when the forward sweep scatters into it (kZeroAcc). kInner (session 16; every row
+/// but the last): p_i and D_i^-1's third column are loaded whole, one instruction fewer each (their lane 3
+/// is row i + 1's first entry: it reaches only lane 3 of the result, which mat_vec never reads and
+/// store3 drops). Lanes 0..2 are the masked path's bit for bit. (t_i stored as four lanes one entry
+/// down, a lane permute and one store instead of three instructions, was 3% slower in time: the
+/// permute sits on the sweep's serial chain, t_i -> row i - 1's gather; docs/deformation-models.md.)
+template <size_t kStride, bool kZeroAcc, bool kInner>
+PLIANT_AVX2_FMA inline void backward_row(const BackwardSweepData& d, const int* cols, size_t i, const double* p,
+                                         double* t, double* acc, __m256d s) {
+  if (kZeroAcc) store3(acc + 3 * i, _mm256_setzero_pd());
+  if (d.fixed[i] != 0) {
+    t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
+    return;
+  }
+  const __m256d a = gather<kStride>(d.blocks, cols, static_cast<size_t>(d.offsets[i]) + 1,
+                                    static_cast<size_t>(d.offsets[i + 1]), t);
+  if constexpr (kInner) {
+    store3(t + 3 * i, mat_vec_whole(d.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, _mm256_loadu_pd(p + 3 * i))));
+  } else {
+    store3(t + 3 * i, mat_vec(d.D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
+  }
+}
+
 /// The backward sweep t = (D + L^T)^-1 p, rows descending, each row's blocks prefetched 8 rows
-/// ahead; zeroes acc row by row when the forward sweep scatters into it (kZeroAcc). cols: sys.cols
-/// (kStride 3) or sys.col_entries (kStride 1).
+/// ahead. cols: sys.cols (kStride 3) or sys.col_entries (kStride 1). Session 16: the last row by the
+/// masked path, the rows below it by the inner one; the rows from n - 2 down to 8
+/// prefetch row i - 8's blocks from a running pointer (that row's lines end where row i - 7's begin,
+/// the previous turn's start: the same lines as prefetch_row), the rows below 8 in a loop without
+/// the test.
 template <size_t kStride, bool kZeroAcc>
 PLIANT_AVX2_FMA void backward_sweep(const FusedSsorSystem& sys, const int* cols, const double* p, double* t,
                                     double* acc) {
-  constexpr size_t kPrefetchRows = 8;
-  const double* blocks = sys.blocks;
-  const int* offsets = sys.offsets;
-  const double* D_inverse = sys.D_inverse;
-  const char* fixed = sys.fixed;
+  const BackwardSweepData d{sys.blocks, sys.offsets, sys.D_inverse, sys.fixed};
   const size_t n = sys.n;
   const __m256d s = _mm256_set1_pd(sys.s);
-  const __m256d zero = _mm256_setzero_pd();
-  for (size_t i = n; i-- > 0;) {
-    if (kZeroAcc) store3(acc + 3 * i, zero);
-    if (fixed[i] != 0) {
-      t[3 * i] = p[3 * i], t[3 * i + 1] = p[3 * i + 1], t[3 * i + 2] = p[3 * i + 2];
-      continue;
+  if (n == 0) return;
+  const size_t last = n - 1;
+  if (last >= kPrefetchRows) prefetch_row(d.blocks, d.offsets, last - kPrefetchRows);
+  backward_row<kStride, kZeroAcc, false>(d, cols, last, p, t, acc, s);
+  if (last == 0) return;
+  size_t i = last - 1;
+  if (i >= kPrefetchRows) {
+    const auto line_of = [&](size_t k) {
+      return reinterpret_cast<const char*>(d.blocks + 9 * static_cast<size_t>(d.offsets[k]));
+    };
+    const char* end = line_of(i - kPrefetchRows + 1);
+    for (; i >= kPrefetchRows; --i) {
+      const char* start = line_of(i - kPrefetchRows);
+      for (const char* line = start; line < end; line += 128) _mm_prefetch(line, _MM_HINT_T0);
+      end = start;
+      backward_row<kStride, kZeroAcc, true>(d, cols, i, p, t, acc, s);
     }
-    if (i >= kPrefetchRows) prefetch_row(blocks, offsets, i - kPrefetchRows);
-    const __m256d a = gather<kStride>(blocks, cols, static_cast<size_t>(offsets[i]) + 1,
-                                      static_cast<size_t>(offsets[i + 1]), t);
-    store3(t + 3 * i, mat_vec(D_inverse + 9 * i, _mm256_fnmadd_pd(s, a, load3(p + 3 * i))));
   }
+  for (size_t k = i + 1; k-- > 0;) backward_row<kStride, kZeroAcc, true>(d, cols, k, p, t, acc, s);
 }
 
 }  // namespace
@@ -380,12 +435,22 @@ PLIANT_AVX2_FMA double fused_cg_update(const FusedSsorSystem& sys, double a, con
     dv[k] = std::fma(a, z[k], dv[k]);
     r[k] = std::fma(-a, q[k], r[k]);
   }
-  // D r and r . D r row by row (lane 3 of r_i zero, as the masked update left it).
+  // D r and r . D r row by row (lane 3 of r_i zero, as the masked update left it). Every row but the
+  // last stores D r_i as four lanes (session 16: one store instead of three), the fourth landing on
+  // row i + 1's first entry, which row i + 1 stores next.
   __m256d rz = _mm256_setzero_pd();
-  for (size_t i = 0; i < sys.n; ++i) {
+  const size_t n = sys.n;
+  const double* D = sys.D;
+  for (size_t i = 0; i + 1 < n; ++i) {
     const __m256d ri = load3(r + 3 * i);
-    const __m256d di = mat_vec(sys.D + 9 * i, ri);
-    store3(Dr + 3 * i, di);
+    const __m256d di = mat_vec(D + 9 * i, ri);
+    _mm256_storeu_pd(Dr + 3 * i, di);
+    rz = _mm256_fmadd_pd(ri, di, rz);
+  }
+  if (n > 0) {
+    const __m256d ri = load3(r + 3 * (n - 1));
+    const __m256d di = mat_vec(D + 9 * (n - 1), ri);
+    store3(Dr + 3 * (n - 1), di);
     rz = _mm256_fmadd_pd(ri, di, rz);
   }
   return horizontal_sum(rz);

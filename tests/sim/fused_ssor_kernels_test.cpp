@@ -403,5 +403,94 @@ TEST(FusedSsorKernels, FlatCgUpdateEqualsRowByRowUpdateBitForBit) {
   EXPECT_EQ(checked, 54);
 }
 
+// Session 16: the backward sweep's inner rows (p_i and D_i^-1's third column loaded whole, the
+// prefetch from a running pointer), the forward sweep's whole third columns and fused_cg_update's
+// whole-lane D r stores, on random upper patterns of 1 to
+// 20 rows (so every boundary of the row loops: the last row, row 0, rows below and above the
+// prefetch distance 8), rows with 0 to 4 upper blocks, random fixed rows keeping their blocks or
+// not. Against session 8's kernels: t, q, p . q (and the accumulator with the scatter sweep) bit for
+// bit; four sentinels before and after t, q, acc and D r untouched (no store before entry 0, the
+// whole-lane stores not past 3 n). The whole loads must stay inside the exactly sized inputs: run it
+// under valgrind's memcheck after changing them (docs/deformation-models.md, Session 16).
+TEST(FusedSsorKernels, WholeLaneLoadsAndStoresEqualSessionEightsOnSmallPatternsBitForBit) {
+  if (!fused_sweeps_available()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  int checked = 0;
+  for (size_t n = 1; n <= 20; ++n) {
+    for (unsigned seed = 1; seed <= 3; ++seed) {
+      RandomSystem sys(1, 1, 400 + 10 * static_cast<unsigned>(n) + seed);  // its generator and entries
+      std::uniform_int_distribution<int> upper(0, 4);
+      sys.n = n;
+      sys.offsets.assign(1, 0);
+      sys.cols.clear();
+      sys.fixed.assign(n, 0);
+      for (size_t i = 0; i < n; ++i) {
+        sys.fixed[i] = sys.kind(sys.rng) < 3 ? 1 : 0;
+        std::vector<int> row{static_cast<int>(i)};
+        if (sys.fixed[i] == 0 || seed != 2) {
+          for (int k = upper(sys.rng); k > 0 && i + 1 < n; --k) {
+            std::uniform_int_distribution<int> col(static_cast<int>(i) + 1, static_cast<int>(n) - 1);
+            row.push_back(col(sys.rng));
+          }
+        }
+        std::sort(row.begin() + 1, row.end());
+        row.erase(std::unique(row.begin() + 1, row.end()), row.end());
+        sys.cols.insert(sys.cols.end(), row.begin(), row.end());
+        sys.offsets.push_back(static_cast<int>(sys.cols.size()));
+      }
+      // Exact sizes: the whole loads of the last row would read past them (memcheck).
+      sys.blocks.resize(9 * sys.cols.size());
+      for (double& b : sys.blocks) b = sys.entry();
+      sys.D.resize(9 * n);
+      sys.D_inverse.resize(9 * n);
+      for (double& e : sys.D) e = sys.entry();
+      for (double& e : sys.D_inverse) e = 0.1 * sys.unit(sys.rng);
+      const double s = seed % 2 == 0 ? 1e-4 : 0.37;
+      FusedSsorSystem gathered = sys.gathered_system(s);
+      gathered.col_entries = sys.lower.column_entries.data();
+      gathered.lower_row_entries = sys.lower.row_entries.data();
+      FusedSsorSystem scatter = sys.system(s);
+      scatter.col_entries = sys.lower.column_entries.data();
+      for (const FusedSsorSystem* fs : {&gathered, &scatter}) {
+        SCOPED_TRACE(testing::Message() << "n " << n << " seed " << seed << " gathered " << (fs == &gathered));
+        const std::vector<double> p = sys.vector();
+        const double sentinel = 1234.5;
+        const auto padded = [&] {
+          std::vector<double> v(3 * n + 8, sentinel);
+          return v;
+        };
+        std::vector<double> t = padded(), q = padded(), acc = padded();
+        std::vector<double> t_ref(3 * n), q_ref(3 * n), acc_ref = sys.vector();
+        const double pq = fused_eisenstat_sweeps(*fs, p.data(), t.data() + 4, q.data() + 4, acc.data() + 4);
+        const double pq_ref = reference_sweeps(*fs, p.data(), t_ref.data(), q_ref.data(), acc_ref.data());
+        for (const auto* v : {&t, &q, &acc}) {
+          EXPECT_TRUE(std::all_of(v->begin(), v->begin() + 4, [&](double e) { return e == sentinel; }));
+          EXPECT_TRUE(std::all_of(v->end() - 4, v->end(), [&](double e) { return e == sentinel; }));
+        }
+        EXPECT_EQ(std::memcmp(t.data() + 4, t_ref.data(), 3 * n * sizeof(double)), 0);
+        EXPECT_EQ(std::memcmp(q.data() + 4, q_ref.data(), 3 * n * sizeof(double)), 0);
+        if (fs == &scatter) {
+          EXPECT_EQ(std::memcmp(acc.data() + 4, acc_ref.data(), 3 * n * sizeof(double)), 0);
+        }
+        EXPECT_EQ(std::memcmp(&pq, &pq_ref, sizeof(double)), 0) << pq << " vs " << pq_ref;
+        // The CG update after it, on the same system.
+        const double a = seed == 3 ? -2.7e-3 : 0.61;
+        std::vector<double> dv = sys.vector(), r = sys.vector(), Dr = padded();
+        std::vector<double> dv_ref = dv, r_ref = r, Dr_ref(3 * n);
+        const double rz = fused_cg_update(*fs, a, t.data() + 4, q.data() + 4, dv.data(), r.data(), Dr.data() + 4);
+        const double rz_ref = reference_cg_update(*fs, a, t_ref.data(), q_ref.data(), dv_ref.data(), r_ref.data(),
+                                                  Dr_ref.data());
+        EXPECT_TRUE(same_bits(dv, dv_ref));
+        EXPECT_TRUE(same_bits(r, r_ref));
+        EXPECT_TRUE(std::all_of(Dr.begin(), Dr.begin() + 4, [&](double e) { return e == sentinel; }));
+        EXPECT_TRUE(std::all_of(Dr.end() - 4, Dr.end(), [&](double e) { return e == sentinel; }));
+        EXPECT_EQ(std::memcmp(Dr.data() + 4, Dr_ref.data(), 3 * n * sizeof(double)), 0);
+        EXPECT_EQ(std::memcmp(&rz, &rz_ref, sizeof(double)), 0) << rz << " vs " << rz_ref;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 120);
+}
+
 }  // namespace
 }  // namespace pliant
