@@ -44,8 +44,9 @@ void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t
 
 /// Zeroes the blocks [0, block_count) and sums into them every vertex row's blocks from the tets
 /// [0, tet_count) in tet order: bit for bit sum_stiffness_row over all rows, whose corners are
-/// ascending by tet (the order each block's terms are added in both). Only where
-/// stiffness_row_kernels_available().
+/// ascending by tet (the order each block's terms are added in both). Session 16: tets with four
+/// distinct vertices run four per call, one per lane, their blocks added tet by tet afterwards (the
+/// same sums, the same order). Only where stiffness_row_kernels_available().
 void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t block_count, size_t tet_count);
 
 /// True when one of a tet corner's four block slots (-1: stored in the other vertex's row) is
