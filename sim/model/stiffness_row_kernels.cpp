@@ -13,6 +13,34 @@
 
 namespace pliant {
 
+namespace {
+
+// The corner pairs (a, b), a < b, of a tet, in tet_block_lists' order.
+constexpr int kPairA[6] = {0, 0, 0, 1, 1, 2};
+constexpr int kPairB[6] = {1, 2, 3, 2, 3, 3};
+
+}  // namespace
+
+void tet_block_lists(const int* tet_blocks, size_t tet_count, int* lists) {
+  for (size_t t = 0; t < tet_count; ++t) {
+    const int* slots = tet_blocks + 16 * t;
+    int* list = lists + kTetBlockListSize * t;
+    int bits = 0;
+    for (int k = 0; k < 16; ++k) bits |= slots[k] >= 0 ? 1 << k : 0;
+    bool one_per_pair = true;
+    for (int a = 0; a < 4; ++a) {
+      list[1 + a] = slots[5 * a];
+      one_per_pair = one_per_pair && slots[5 * a] >= 0;
+    }
+    for (int p = 0; p < 6; ++p) {
+      const int ab = slots[4 * kPairA[p] + kPairB[p]], ba = slots[4 * kPairB[p] + kPairA[p]];
+      one_per_pair = one_per_pair && ((ab >= 0) != (ba >= 0));  // a repeated vertex stores both
+      list[5 + p] = std::max(ab, ba);
+    }
+    list[0] = one_per_pair ? bits : -1;
+  }
+}
+
 #if defined(PLIANT_STIFFNESS_ROW_KERNELS)
 
 bool stiffness_row_kernels_available() {
@@ -170,38 +198,15 @@ namespace {
 // blend, whose operands are the same values); only the additions of -0 to the off-diagonal entries
 // are left out (x + -0 = x for every x). The ten blocks of the four tets go to a buffer first and are
 // then added tet by tet, so every block still receives its terms in ascending tet order.
-constexpr int kPairA[6] = {0, 0, 0, 1, 1, 2};
-constexpr int kPairB[6] = {1, 2, 3, 2, 3, 3};
-constexpr unsigned kDiagonalSlotBits = 1u | 1u << 5 | 1u << 10 | 1u << 15;
-constexpr unsigned kUpperSlotBits = 1u << 1 | 1u << 2 | 1u << 3 | 1u << 6 | 1u << 7 | 1u << 11;
-
-/// Bit 4 a + b set where the tet's block slot (a, b) is stored (>= 0).
-PLIANT_AVX2_ONLY inline unsigned stored_slot_bits(const int* slots) {
-  const __m256i none = _mm256_set1_epi32(-1);
-  const __m256i lo = _mm256_cmpgt_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(slots)), none);
-  const __m256i hi =
-      _mm256_cmpgt_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(slots + 8)), none);
-  return static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(lo))) |
-         static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(hi))) << 8;
-}
-
-/// True when the stored slots are a regular tet's: every diagonal slot, and for each corner pair
-/// exactly one of (a, b) and (b, a). (A repeated vertex stores both of its pair, on its diagonal block.)
-inline bool one_block_per_pair(unsigned bits) {
-  // The lower slots (b, a), bit 4 b + a, moved onto their pair's upper bit 4 a + b.
-  const unsigned lower_as_upper = ((bits >> 3) & (1u << 1 | 1u << 6 | 1u << 11)) |
-                                  ((bits >> 6) & (1u << 2 | 1u << 7)) | ((bits >> 9) & (1u << 3));
-  return (bits & kDiagonalSlotBits) == kDiagonalSlotBits &&
-         ((bits & kUpperSlotBits) ^ lower_as_upper) == kUpperSlotBits;
-}
-
 using matrix_lanes::load_entries;
 using matrix_lanes::store_entries;
 
-/// The ten blocks of the regular tets t..t+3 (slot bits in bits[l]) added to their slots, tet by tet.
-__attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const double* gradients, const double* volume,
-                                                  const int* tet_blocks, double mu, double lambda, size_t t,
-                                                  const unsigned bits[4], double* blocks) {
+/// The ten blocks of the regular tets t..t+3 (tet_block_lists at lists) added to their slots, tet by
+/// tet.
+__attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const double* gradients,
+                                                                          const double* volume, const int* lists,
+                                                                          double mu, double lambda, size_t t,
+                                                                          double* blocks) {
   __m256d g[9];  // g[k] lane l: entry k of tet t + l's gradients (r_1 entries 0-2, r_2 3-5, r_3 6-8)
   load_entries(gradients + 9 * t, gradients + 9 * (t + 1), gradients + 9 * (t + 2), gradients + 9 * (t + 3),
                g);
@@ -238,9 +243,9 @@ __attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const 
     e[8] = _mm256_add_pd(_mm256_mul_pd(k2, x[2]), d);
     store(a);
   }
-  const __m256i bit_lanes =
-      _mm256_set_epi64x(static_cast<long long>(bits[3]), static_cast<long long>(bits[2]),
-                        static_cast<long long>(bits[1]), static_cast<long long>(bits[0]));
+  const int* list[4] = {lists + kTetBlockListSize * t, lists + kTetBlockListSize * (t + 1),
+                         lists + kTetBlockListSize * (t + 2), lists + kTetBlockListSize * (t + 3)};
+  const __m256i bit_lanes = _mm256_set_epi64x(list[3][0], list[2][0], list[1][0], list[0][0]);
 #pragma GCC unroll 6
   for (int p = 0; p < 6; ++p) {
     const int a = kPairA[p], b = kPairB[p];
@@ -268,14 +273,11 @@ __attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const 
     store(4 + p);
   }
   for (size_t l = 0; l < 4; ++l) {
-    const int* slots = tet_blocks + 16 * (t + l);
 #pragma GCC unroll 10
     for (int k = 0; k < 10; ++k) {
-      const int slot = k < 4 ? slots[5 * k]
-                             : std::max(slots[4 * kPairA[k - 4] + kPairB[k - 4]],
-                                        slots[4 * kPairB[k - 4] + kPairA[k - 4]]);
       const double* o = out[l] + 9 * k;
-      add_to_block(blocks + 9 * static_cast<size_t>(slot), _mm256_loadu_pd(o), _mm256_loadu_pd(o + 4), o[8]);
+      add_to_block(blocks + 9 * static_cast<size_t>(list[l][1 + k]), _mm256_loadu_pd(o), _mm256_loadu_pd(o + 4),
+                   o[8]);
     }
   }
 }
@@ -312,16 +314,12 @@ PLIANT_AVX2_ONLY void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t
       add_corner_blocks<false>(r, a, tet_blocks + 16 * t + 4 * a, Vmu, Vlambda, blocks, nullptr);
     }
   };
+  const int* const lists = sys.tet_block_lists;
   size_t t = 0;
   for (; t + 4 <= tet_count; t += 4) {
-    unsigned bits[4];
-    bool regular = true;
-    for (size_t l = 0; l < 4; ++l) {
-      bits[l] = stored_slot_bits(tet_blocks + 16 * (t + l));
-      regular = regular && one_block_per_pair(bits[l]);
-    }
-    if (regular) {
-      add_four_tets_blocks(gradients, volume, tet_blocks, mu, lambda, t, bits, blocks);
+    const int* list = lists + kTetBlockListSize * t;
+    if ((list[0] | list[kTetBlockListSize] | list[2 * kTetBlockListSize] | list[3 * kTetBlockListSize]) >= 0) {
+      add_four_tets_blocks(gradients, volume, lists, mu, lambda, t, blocks);  // four regular tets
       continue;
     }
     for (size_t l = 0; l < 4; ++l) add_tet_blocks(t + l);

@@ -140,8 +140,10 @@ bool by_tet_equals_by_row(const std::vector<TetIndices>& tets, size_t n, unsigne
   std::vector<double> by_row(9 * cols.size()), by_tet(9 * cols.size());
   for (double& b : by_row) b = entry();
   for (double& b : by_tet) b = entry();
-  StiffnessRowSystem sys{
-      by_row.data(), gradients.data(), volume.data(), tet_blocks.data(), corners.data(), 3.3e4, 3e5};
+  std::vector<int> lists(kTetBlockListSize * nt);
+  tet_block_lists(tet_blocks.data(), nt, lists.data());
+  StiffnessRowSystem sys{by_row.data(), gradients.data(), volume.data(), tet_blocks.data(), corners.data(),
+                         3.3e4, 3e5, lists.data()};
   for (size_t i = 0; i < n; ++i) {
     sum_stiffness_row(sys, static_cast<size_t>(row_offsets[i]), static_cast<size_t>(row_offsets[i + 1]),
                       corner_offsets[i], corner_offsets[i + 1]);
