@@ -140,6 +140,8 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
         }
       }
     }
+    tet_block_lists_.resize(kTetBlockListSize * nt);
+    tet_block_lists(tet_blocks_.data()->data(), nt, tet_block_lists_.data());
   }
 }
 
@@ -265,7 +267,7 @@ void CorotationalFem::assemble_row(size_t i, const Mat3* gradients, const char* 
   if (vector_kernels_) {  // the same blocks bit for bit, in AVX2 lanes (stiffness_row_kernels.h)
     static_assert(sizeof(TetCorner) == 2 * sizeof(int) && sizeof(tet_blocks_[0]) == 16 * sizeof(int));
     const StiffnessRowSystem sys{blocks_.data()->data(), gradients->data(), volume_.data(), tet_blocks_.data()->data(),
-                                 &corners_.data()->tet, mu_, lambda_};
+                                 &corners_.data()->tet, mu_, lambda_, tet_block_lists_.data()};
     sum_stiffness_row(sys, static_cast<size_t>(block_row_offsets_[i]), static_cast<size_t>(block_row_offsets_[i + 1]),
                       static_cast<size_t>(corner_offsets_[i]), static_cast<size_t>(corner_offsets_[i + 1]), block_dirty);
     return;
@@ -295,7 +297,7 @@ void CorotationalFem::assemble_row(size_t i, const Mat3* gradients, const char* 
 void CorotationalFem::assemble_all_rows(const Mat3* gradients) {
   if (vector_kernels_) {  // each block's terms in the rows' order, ascending tet (stiffness_row_kernels.h)
     const StiffnessRowSystem sys{blocks_.data()->data(), gradients->data(), volume_.data(), tet_blocks_.data()->data(),
-                                 &corners_.data()->tet, mu_, lambda_};
+                                 &corners_.data()->tet, mu_, lambda_, tet_block_lists_.data()};
     sum_stiffness_by_tet(sys, blocks_.size(), static_cast<size_t>(mesh_->tet_count()));
     return;
   }

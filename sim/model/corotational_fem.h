@@ -268,6 +268,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<int> block_row_offsets_, block_cols_;
   std::vector<int> diagonal_blocks_;             ///< block index of (i, i)
   std::vector<std::array<int, 16>> tet_blocks_;  ///< block index of (i, j) for local i, j; -1 below the diagonal
+  std::vector<int> tet_block_lists_;  ///< tet_block_lists of tet_blocks_ (the K' sum by tet, session 16)
   /// A tet around a vertex and the vertex's local index (0..3) in it.
   struct TetCorner {
     int tet;

@@ -8,9 +8,38 @@
 // AVX2 without "fma": with FMA enabled GCC would contract a * b + c (its C++ default is
 // -ffp-contract=fast) and the blocks would no longer be the scalar code's.
 #define PLIANT_AVX2_ONLY __attribute__((target("avx2")))
+#include "sim/model/matrix_entry_lanes.h"
 #endif
 
 namespace pliant {
+
+namespace {
+
+// The corner pairs (a, b), a < b, of a tet, in tet_block_lists' order.
+constexpr int kPairA[6] = {0, 0, 0, 1, 1, 2};
+constexpr int kPairB[6] = {1, 2, 3, 2, 3, 3};
+
+}  // namespace
+
+void tet_block_lists(const int* tet_blocks, size_t tet_count, int* lists) {
+  for (size_t t = 0; t < tet_count; ++t) {
+    const int* slots = tet_blocks + 16 * t;
+    int* list = lists + kTetBlockListSize * t;
+    int bits = 0;
+    for (int k = 0; k < 16; ++k) bits |= slots[k] >= 0 ? 1 << k : 0;
+    bool one_per_pair = true;
+    for (int a = 0; a < 4; ++a) {
+      list[1 + a] = slots[5 * a];
+      one_per_pair = one_per_pair && slots[5 * a] >= 0;
+    }
+    for (int p = 0; p < 6; ++p) {
+      const int ab = slots[4 * kPairA[p] + kPairB[p]], ba = slots[4 * kPairB[p] + kPairA[p]];
+      one_per_pair = one_per_pair && ((ab >= 0) != (ba >= 0));  // a repeated vertex stores both
+      list[5 + p] = std::max(ab, ba);
+    }
+    list[0] = one_per_pair ? bits : -1;
+  }
+}
 
 #if defined(PLIANT_STIFFNESS_ROW_KERNELS)
 
@@ -159,10 +188,109 @@ PLIANT_AVX2_ONLY void sum_stiffness_row(const StiffnessRowSystem& sys, size_t fi
   }
 }
 
+namespace {
+
+// Session 16: four tets per call, one per lane. A regular tet (four distinct vertices) adds to ten
+// distinct blocks: its four diagonal ones and, for each of its six corner pairs (a, b), a < b, the
+// one stored in the row of the lower vertex, R K_xy R^T with x that pair's row corner and y the
+// other (add_corner_blocks' (a, b) when slot (a, b) is stored, its (b, a) otherwise). Each lane forms
+// exactly add_corner_blocks' products and sums for its tet (the row corner chosen per lane by a
+// blend, whose operands are the same values); only the additions of -0 to the off-diagonal entries
+// are left out (x + -0 = x for every x). The ten blocks of the four tets go to a buffer first and are
+// then added tet by tet, so every block still receives its terms in ascending tet order.
+using matrix_lanes::load_entries;
+using matrix_lanes::store_entries;
+
+/// The ten blocks of the regular tets t..t+3 (tet_block_lists at lists) added to their slots, tet by
+/// tet.
+__attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const double* gradients,
+                                                                          const double* volume, const int* lists,
+                                                                          double mu, double lambda, size_t t,
+                                                                          double* blocks) {
+  __m256d g[9];  // g[k] lane l: entry k of tet t + l's gradients (r_1 entries 0-2, r_2 3-5, r_3 6-8)
+  load_entries(gradients + 9 * t, gradients + 9 * (t + 1), gradients + 9 * (t + 2), gradients + 9 * (t + 3),
+               g);
+  __m256d r[4][3];  // r[j][k]: component k of r_j
+  for (int k = 0; k < 3; ++k) {
+    r[1][k] = g[k];
+    r[2][k] = g[3 + k];
+    r[3][k] = g[6 + k];
+    r[0][k] = _mm256_xor_pd(_mm256_set1_pd(-0.0), _mm256_add_pd(_mm256_add_pd(g[k], g[3 + k]), g[6 + k]));
+  }
+  const __m256d V = _mm256_loadu_pd(volume + t);
+  const __m256d Vmu = _mm256_mul_pd(V, _mm256_set1_pd(mu)),
+                Vlambda = _mm256_mul_pd(V, _mm256_set1_pd(lambda));
+  alignas(32) double out[4][10 * 9];  // out[l][9 k ..]: tet t + l's block k (diagonal a = k, pair k - 4)
+  __m256d e[9];
+  const auto store = [&](int k) {
+    store_entries(e, out[0] + 9 * k, out[1] + 9 * k, out[2] + 9 * k, out[3] + 9 * k);
+  };
+  const __m256d k_diag = _mm256_add_pd(Vmu, Vlambda);
+#pragma GCC unroll 4
+  for (int a = 0; a < 4; ++a) {
+    // add_corner_blocks' diagonal block: entry (r, c) = (k a_min) a_max, plus d on the diagonal.
+    const __m256d* x = r[a];
+    const __m256d d =
+        _mm256_mul_pd(Vmu, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(x[0], x[0]), _mm256_mul_pd(x[1], x[1])),
+                                         _mm256_mul_pd(x[2], x[2])));
+    const __m256d k0 = _mm256_mul_pd(k_diag, x[0]), k1 = _mm256_mul_pd(k_diag, x[1]),
+                  k2 = _mm256_mul_pd(k_diag, x[2]);
+    e[0] = _mm256_add_pd(_mm256_mul_pd(k0, x[0]), d);
+    e[1] = e[3] = _mm256_mul_pd(k0, x[1]);
+    e[2] = e[6] = _mm256_mul_pd(k0, x[2]);
+    e[4] = _mm256_add_pd(_mm256_mul_pd(k1, x[1]), d);
+    e[5] = e[7] = _mm256_mul_pd(k1, x[2]);
+    e[8] = _mm256_add_pd(_mm256_mul_pd(k2, x[2]), d);
+    store(a);
+  }
+  const int* list[4] = {lists + kTetBlockListSize * t, lists + kTetBlockListSize * (t + 1),
+                         lists + kTetBlockListSize * (t + 2), lists + kTetBlockListSize * (t + 3)};
+  const __m256i bit_lanes = _mm256_set_epi64x(list[3][0], list[2][0], list[1][0], list[0][0]);
+#pragma GCC unroll 6
+  for (int p = 0; p < 6; ++p) {
+    const int a = kPairA[p], b = kPairB[p];
+    // Sign bit of each lane: slot (a, b) stored, so a is the row corner.
+    const __m256d a_first =
+        _mm256_castsi256_pd(_mm256_sll_epi64(bit_lanes, _mm_cvtsi32_si128(63 - (4 * a + b))));
+    __m256d x[3], y[3], u[3], w[3];
+    for (int k = 0; k < 3; ++k) {
+      x[k] = _mm256_blendv_pd(r[b][k], r[a][k], a_first);
+      y[k] = _mm256_blendv_pd(r[a][k], r[b][k], a_first);
+      u[k] = _mm256_mul_pd(Vmu, y[k]);      // V mu r_y
+      w[k] = _mm256_mul_pd(Vlambda, x[k]);  // V lambda r_x
+    }
+    // add_corner_blocks' off-diagonal block: entry (r, c) = u_r x_c + w_r y_c, plus d = V mu (x . y)
+    // on the diagonal.
+    const __m256d d =
+        _mm256_mul_pd(Vmu, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(x[0], y[0]), _mm256_mul_pd(x[1], y[1])),
+                                         _mm256_mul_pd(x[2], y[2])));
+    for (int c = 0; c < 3; ++c) {
+      for (int row = 0; row < 3; ++row) {
+        const __m256d entry = _mm256_add_pd(_mm256_mul_pd(u[row], x[c]), _mm256_mul_pd(w[row], y[c]));
+        e[row + 3 * c] = row == c ? _mm256_add_pd(entry, d) : entry;
+      }
+    }
+    store(4 + p);
+  }
+  for (size_t l = 0; l < 4; ++l) {
+#pragma GCC unroll 10
+    for (int k = 0; k < 10; ++k) {
+      const double* o = out[l] + 9 * k;
+      add_to_block(blocks + 9 * static_cast<size_t>(list[l][1 + k]), _mm256_loadu_pd(o), _mm256_loadu_pd(o + 4),
+                   o[8]);
+    }
+  }
+}
+
+}  // namespace
+
 // Tet order (session 14): a block's contributions are the tets holding both of its vertices; a row
 // adds them in its corners' order, ascending tet, and so does this loop. Each tet's gradients are
 // loaded and r_0 formed once instead of once per corner, and there is no corner list to walk.
-PLIANT_AVX2_ONLY void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t block_count, size_t tet_count) {
+// Session 16: regular tets four at a time in lanes (add_four_tets_blocks); a group with a
+// degenerate tet, and the last tet_count % 4, one by one as before.
+PLIANT_AVX2_ONLY void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t block_count,
+                                           size_t tet_count) {
   double* const blocks = sys.blocks;
   const double* const gradients = sys.gradients;
   const double* const volume = sys.volume;
@@ -177,7 +305,7 @@ PLIANT_AVX2_ONLY void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t
   size_t k = 0;
   for (; k + 4 <= doubles; k += 4) _mm256_storeu_pd(blocks + k, zero);
   for (; k < doubles; ++k) blocks[k] = 0.0;
-  for (size_t t = 0; t < tet_count; ++t) {
+  const auto add_tet_blocks = [&](size_t t) {
     CornerGradients r;
     load_corner_gradients(gradients + 9 * t, r);
     const double Vmu = volume[t] * mu, Vlambda = volume[t] * lambda;
@@ -185,7 +313,18 @@ PLIANT_AVX2_ONLY void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t
     for (size_t a = 0; a < 4; ++a) {
       add_corner_blocks<false>(r, a, tet_blocks + 16 * t + 4 * a, Vmu, Vlambda, blocks, nullptr);
     }
+  };
+  const int* const lists = sys.tet_block_lists;
+  size_t t = 0;
+  for (; t + 4 <= tet_count; t += 4) {
+    const int* list = lists + kTetBlockListSize * t;
+    if ((list[0] | list[kTetBlockListSize] | list[2 * kTetBlockListSize] | list[3 * kTetBlockListSize]) >= 0) {
+      add_four_tets_blocks(gradients, volume, lists, mu, lambda, t, blocks);  // four regular tets
+      continue;
+    }
+    for (size_t l = 0; l < 4; ++l) add_tet_blocks(t + l);
   }
+  for (; t < tet_count; ++t) add_tet_blocks(t);
 }
 
 namespace {

@@ -32,7 +32,18 @@ struct StiffnessRowSystem {
   const int* corners;        ///< (tet, local index) pairs of the tets around each vertex
   double mu;                 ///< Lame mu (Pa)
   double lambda;             ///< Lame lambda (Pa)
+  const int* tet_block_lists = nullptr;  ///< per tet kTetBlockListSize ints (tet_block_lists); sum_stiffness_by_tet
 };
+
+/// Ints per tet of tet_block_lists.
+inline constexpr size_t kTetBlockListSize = 11;
+
+/// For each of `tet_count` tets (16 block slots each in tet_blocks, as StiffnessRowSystem::tet_blocks):
+/// [0] the stored-slot bits (bit 4 a + b set where slot (a, b) >= 0) when the tet stores exactly one
+/// block per corner pair (four distinct vertices), -1 otherwise; [1..4] its diagonal slots (a, a);
+/// [5..10] the stored slot of each corner pair (0,1) (0,2) (0,3) (1,2) (1,3) (2,3). Built once per
+/// mesh for sum_stiffness_by_tet (session 16).
+void tet_block_lists(const int* tet_blocks, size_t tet_count, int* lists);
 
 /// Zeroes the blocks [first_block, last_block) of a vertex row and sums into them the blocks of
 /// the corners [first_corner, last_corner) (the vertex's, ascending tet): bit for bit
@@ -44,8 +55,10 @@ void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t
 
 /// Zeroes the blocks [0, block_count) and sums into them every vertex row's blocks from the tets
 /// [0, tet_count) in tet order: bit for bit sum_stiffness_row over all rows, whose corners are
-/// ascending by tet (the order each block's terms are added in both). Only where
-/// stiffness_row_kernels_available().
+/// ascending by tet (the order each block's terms are added in both). Session 16: tets with four
+/// distinct vertices run four per call, one per lane, their blocks added tet by tet afterwards (the
+/// same sums, the same order); sys.tet_block_lists must hold tet_block_lists of sys.tet_blocks. Only
+/// where stiffness_row_kernels_available().
 void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t block_count, size_t tet_count);
 
 /// True when one of a tet corner's four block slots (-1: stored in the other vertex's row) is
