@@ -104,8 +104,9 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   return true;
 }
 
-long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
+long long SpatialHash::gather_partner_vertices(int b, double inv_l) {
   const Aabb& own = body_bounds_[static_cast<size_t>(b)];
+  partner_outcodes_.clear_boxes();
   int hi[3];
   double cells = 1.0;
   for (int k = 0; k < 3; ++k) {
@@ -113,35 +114,43 @@ long long SpatialHash::mark_occupied_cells(int b, double inv_l) {
     hi[k] = cell_coordinate(own.max[k], inv_l);
     cells *= static_cast<double>(hi[k]) - occupied_origin_[k] + 1.0;
   }
-  // A bitmap of more than 8 bits per inserted vertex would cost more to clear than its look-ups:
-  // none then (a body much larger than its share of the vertices), and no tet is skipped.
   occupied_dims_[0] = occupied_dims_[1] = occupied_dims_[2] = 0;
   // No cell at all: b's bounds are empty (every vertex non-finite: Aabb::extend drops NaN), so no
   // partner vertex can lie in one of its tets. (A negative count cast to size_t was std::bad_alloc.)
   if (!(cells >= 1.0)) return 0;
-  if (cells > std::max(4096.0, 8.0 * static_cast<double>(hashed_.size()))) return -1;
-  for (int k = 0; k < 3; ++k) occupied_dims_[k] = hi[k] - occupied_origin_[k] + 1;
-  occupied_.assign((static_cast<size_t>(cells) + 63) / 64, 0);
-  long long marked = 0;
+  // A bitmap of more than 8 bits per inserted vertex would cost more to clear than its look-ups:
+  // none then (a body much larger than its share of the vertices), and no tet is skipped by cells.
+  const bool bitmap = cells <= std::max(4096.0, 8.0 * static_cast<double>(hashed_.size()));
+  if (bitmap) {
+    for (int k = 0; k < 3; ++k) occupied_dims_[k] = hi[k] - occupied_origin_[k] + 1;
+    occupied_.assign((static_cast<size_t>(cells) + 63) / 64, 0);
+  }
+  long long inside = 0;
   const int body_count = static_cast<int>(hashed_begin_.size()) - 1;
   for (int a = 0; a < body_count; ++a) {
     // A partner vertex inside a tet of b lies in b's bounds, hence in both boxes.
     if (!partner_[static_cast<size_t>(a)] || !vertex_bounds_[static_cast<size_t>(a)].overlaps(own)) continue;
+    Aabb inside_b;  // a's inserted vertices inside b's bounds: for two touching fruits, their lens
     for (int e = hashed_begin_[static_cast<size_t>(a)]; e < hashed_begin_[static_cast<size_t>(a) + 1]; ++e) {
-      const int* c = hashed_[static_cast<size_t>(e)].cell;
-      if (c[0] < occupied_origin_[0] || c[0] > hi[0] || c[1] < occupied_origin_[1] || c[1] > hi[1] ||
-          c[2] < occupied_origin_[2] || c[2] > hi[2]) {
-        continue;
-      }
+      const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
+      // The complement of the tet's own box test (TetUnderTest::test), with b's bounds for the box.
+      if ((hv.x.array() < own.min.array()).any() || (hv.x.array() > own.max.array()).any()) continue;
+      inside_b.extend(hv.x);
+      ++inside;
+      if (!bitmap) continue;
+      // Inside b's bounds, so inside its cells (the cell coordinate is monotone in x).
+      const int* c = hv.cell;
+      assert(c[0] >= occupied_origin_[0] && c[0] <= hi[0] && c[1] >= occupied_origin_[1] && c[1] <= hi[1] &&
+             c[2] >= occupied_origin_[2] && c[2] <= hi[2]);
       const auto bit = (static_cast<size_t>(c[0] - occupied_origin_[0]) * static_cast<size_t>(occupied_dims_[1]) +
                         static_cast<size_t>(c[1] - occupied_origin_[1])) *
                            static_cast<size_t>(occupied_dims_[2]) +
                        static_cast<size_t>(c[2] - occupied_origin_[2]);
       occupied_[bit / 64] |= std::uint64_t{1} << (bit % 64);
-      ++marked;
     }
+    if (!inside_b.empty()) partner_outcodes_.add_box(inside_b);
   }
-  return marked;
+  return inside;
 }
 
 bool SpatialHash::any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const {
@@ -308,48 +317,35 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
   for (int b = 0; b < body_count; ++b) {
     if (!has_tets_[static_cast<size_t>(b)]) continue;
     const CollisionBody& cb = bodies[static_cast<size_t>(b)];
-    // Bounds of all vertices that may enter this body: tets outside them need no lookup. A partner
-    // with no vertex inserted adds nothing (extending by an empty box's +inf min and -inf max made
-    // the bounds infinite, and every tet of the body was looked up in steps without contact).
-    Aabb partners;
+    // The bodies whose vertices may enter this one; none of them inserted a vertex: nothing to find.
     partner_.assign(static_cast<size_t>(body_count), 0);
+    bool partner_inserted = false;
     for (int a = 0; a < body_count; ++a) {
       if (hashes_vertices_[static_cast<size_t>(a)] && filter.allowed(a, b)) {
         partner_[static_cast<size_t>(a)] = 1;
-        const Aabb& va = vertex_bounds_[static_cast<size_t>(a)];
-        if (va.empty()) continue;
-        partners.extend(va.min);
-        partners.extend(va.max);
+        partner_inserted = partner_inserted || !vertex_bounds_[static_cast<size_t>(a)].empty();
       }
     }
-    if (partners.empty()) continue;
+    if (!partner_inserted) continue;
     if (cb.rigid_pose != nullptr && rigid_pass(b, cb)) continue;
-    // The cells of b holding a partner vertex; none: no tet of b can hold one.
-    if (mark_occupied_cells(b, inv_l) == 0) continue;
-    // Cohen-Sutherland out-codes against the partners' box: a tet all of whose corners lie beyond
-    // one of its faces cannot overlap it (the same decision as the box test below, without the box).
+    // The partners' inserted vertices inside b's bounds, boxed per partner and marked by cell; none:
+    // no tet of b can hold one.
+    if (gather_partner_vertices(b, inv_l) == 0) continue;
+    // Out-codes against those boxes: a tet whose box meets none of them cannot hold a partner vertex
+    // (the tet's own box test would reject every one), so it is skipped before any look-up. In a pile
+    // this leaves the tets near a neighbour's lens; one box around all partners left every tet.
     const int nv = cb.mesh->vertex_count();
-    if (outcode_.size() < static_cast<size_t>(nv)) outcode_.resize(static_cast<size_t>(nv));
-    for (int v = 0; v < nv; ++v) {
-      const Vec3& x = cb.positions[static_cast<size_t>(v)];
-      unsigned code = 0;
-      for (int k = 0; k < 3; ++k) {
-        code |= (x[k] < partners.min[k] ? 1u : 0u) << (2 * k);
-        code |= (x[k] > partners.max[k] ? 2u : 0u) << (2 * k);
-      }
-      outcode_[static_cast<size_t>(v)] = static_cast<unsigned char>(code);
-    }
+    partner_outcodes_.assign_codes(cb.positions.first(static_cast<size_t>(nv)));
     const auto& tets = cb.mesh->tets();
     const int nt = static_cast<int>(tets.size());
     for (int t = 0; t < nt; ++t) {
       const TetIndices& tet = tets[static_cast<size_t>(t)];
-      if ((outcode_[static_cast<size_t>(tet[0])] & outcode_[static_cast<size_t>(tet[1])] &
-           outcode_[static_cast<size_t>(tet[2])] & outcode_[static_cast<size_t>(tet[3])]) != 0) {
+      if (partner_outcodes_.misses_every_box(tet)) {
+        ++stats_.tets_skipped_partner_boxes;
         continue;
       }
       TetUnderTest under_test(cb, b, t);
       const Aabb& box = under_test.box;
-      if (!box.overlaps(partners)) continue;
       const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
       const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
       const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);

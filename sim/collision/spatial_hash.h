@@ -35,6 +35,7 @@
 #include <span>
 #include <vector>
 
+#include "sim/collision/box_set_outcodes.h"
 #include "sim/collision/contact_types.h"
 #include "sim/collision/rigid_tet_grid.h"
 
@@ -60,6 +61,7 @@ struct SpatialHashStats {
   long long candidates_found = 0;   ///< (vertex, tet) pairs found inside, before de-duplication
   long long entries_scanned = 0;    ///< bucket entries read in pass 2 (skipped body runs not counted)
   long long tets_skipped_unoccupied = 0;  ///< tets skipped in pass 2: no partner vertex in their cells
+  long long tets_skipped_partner_boxes = 0;  ///< tets skipped in pass 2: their box meets no partner's box of vertices in the body's bounds
 };
 
 class SpatialHash {
@@ -111,7 +113,7 @@ class SpatialHash {
   std::vector<Aabb> body_bounds_;       ///< per body: bounds of all its vertices (participating bodies)
   std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its inserted vertices
   std::vector<Aabb> partner_boxes_;     ///< pass 1 scratch: bounds of the bodies one body may touch
-  std::vector<unsigned char> outcode_;  ///< pass 2 scratch: per vertex, side bits against the partners' box
+  BoxSetOutcodes partner_outcodes_;     ///< pass 2 scratch: per partner, its inserted vertices in the penetrated body's bounds
   std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
   std::vector<VertexInTet> candidates_;
   std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
@@ -120,9 +122,10 @@ class SpatialHash {
   int occupied_origin_[3] = {0, 0, 0};  ///< cell of the bitmap's bit 0
   int occupied_dims_[3] = {0, 0, 0};    ///< cells of the bitmap along x, y, z (0: no bitmap, no skipping)
 
-  /// Marks the cells of body b's bounds that hold an inserted vertex of a partner of b (partner_);
-  /// returns how many vertices were marked. Leaves no bitmap when b's bounds span too many cells.
-  long long mark_occupied_cells(int b, double inv_l);
+  /// Gathers the inserted vertices of b's partners (partner_) that lie in b's bounds: per partner
+  /// their box (partner_outcodes_), and the cells holding them (the occupied bitmap; none when b's
+  /// bounds span too many cells). Returns how many there are.
+  long long gather_partner_vertices(int b, double inv_l);
   /// Whether some cell of [i0, i1] x [j0, j1] x [k0, k1] (inside b's bounds) holds a partner vertex;
   /// true when there is no bitmap.
   bool any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const;

@@ -255,11 +255,11 @@ TEST(SpatialHash, PileSkipsTetsWithoutPartnerVerticesAndMatchesBruteForce) {
     SCOPED_TRACE(trial);
     expect_same(found, oracle, bodies);
     total += static_cast<long long>(oracle.size());
-    skipped += hash.stats().tets_skipped_unoccupied;
+    skipped += hash.stats().tets_skipped_unoccupied + hash.stats().tets_skipped_partner_boxes;
     visited += hash.stats().tets_visited;
   }
   EXPECT_GT(total, 100);        // the balls really overlap (168 found)
-  EXPECT_GT(skipped, visited);  // and most tets were skipped, exactly
+  EXPECT_GT(skipped, visited);  // and most tets were skipped, exactly (since session 16 most by the partner boxes)
 }
 
 // The piled fruit dish in small (session 15): the 27-ball pile sunk 2 mm into a rigid floor and two
@@ -314,6 +314,88 @@ TEST(SpatialHash, PileInRigidDishMatchesBruteForceAndTheCellWalk) {
   }
   EXPECT_GT(in_boxes, 20);  // ball vertices really lie in the near boxes
   EXPECT_GT(static_cast<int>(oracle.size()) - in_boxes - boxes_in, 50) << in_boxes << " " << boxes_in;  // and in each other
+}
+
+// Pass 2 skips a tet whose box meets no partner's box of inserted vertices inside the penetrated
+// body's bounds (session 16, BoxSetOutcodes). Its edge cases, against the brute force entry for
+// entry: blocks that touch only at a shared face (the partner's vertices inside the bounds form a
+// flat box), edge and corner (a box of one line or one point), all on dyadic coordinates so that the
+// contact is exact; a pair that may not touch (a sleeping pair: the filter says no) overlapping
+// deeply, whose vertices must not keep the other's tets; a self-colliding folded bar (its own
+// vertices are its partner: no tet of it may be skipped) with a block in it; a block far from all.
+// The number of tets skipped must also be the count of a direct second method: per penetrated body,
+// its tets whose box meets none of the boxes {vertices of an allowed partner inside its bounds}.
+TEST(SpatialHash, PartnerBoxSkipMatchesBruteForceAtBoundariesFiltersAndSelfCollision) {
+  const auto block = make_box_mesh({Vec3(0.25, 0.25, 0.25), 2, 2, 2});  // [-0.125, 0.125]^3, cells 0.125
+  const auto small = make_box_mesh({Vec3(0.1, 0.1, 0.1), 2, 2, 2});
+  const auto bar = make_box_mesh({Vec3(1.0, 0.3, 0.1), 16, 4, 2});
+  std::mt19937 rng(1616);
+  std::uniform_int_distribution<int> sixty_fourths(-8, 8);
+  SpatialHash hash;
+  long long skipped_total = 0, found_self = 0, found_at_boundary = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    // The whole scene shifted by a dyadic offset (exact sums) and, in the last trials, by an inexact one.
+    Vec3 shift(sixty_fourths(rng), sixty_fourths(rng), sixty_fourths(rng));
+    shift /= 64.0;
+    if (trial >= 4) shift += Vec3(1e-3, -2e-3, 3e-3) / 3.0;
+    std::vector<std::vector<Vec3>> x = {
+        posed(*block, Quat::Identity(), shift),                                // 0: B
+        posed(*block, Quat::Identity(), shift + Vec3(0.0, 0.0, 0.25)),         // 1: on B's top face
+        posed(*block, Quat::Identity(), shift + Vec3(0.25, 0.25, 0.0)),        // 2: B's edge, 1's corner
+        posed(*block, Quat::Identity(), shift + Vec3(0.1875, 0.0625, 0.0)),    // 3: deep in B (filtered) and in 2
+        posed(*block, Quat::Identity(), shift + Vec3(10.0, 10.0, 10.0)),       // 4: far from all
+        folded(*bar, 0.97 * std::numbers::pi, 0.15),                           // 5: self-colliding fold
+        posed(*small, Quat::Identity(), Vec3(-0.3, 0.05, 0.0)),                // 6: in the fold
+    };
+    for (std::vector<Vec3>* moved : {&x[5], &x[6]}) {
+      for (Vec3& p : *moved) p += shift + Vec3(5.0, 0.0, 0.0);
+    }
+    std::vector<CollisionBody> bodies = bodies_of(*block, x);
+    bodies[5].mesh = bar.get();
+    bodies[6].mesh = small.get();
+    bodies[5].self_collision = true;
+    CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+    filter.set(0, 3, false);  // a sleeping pair: both at rest, the world filters it out
+    std::vector<VertexInTet> found;
+    hash.detect(bodies, filter, found);
+    const auto oracle = brute_force(bodies, filter);
+    SCOPED_TRACE(trial);
+    expect_same(found, oracle, bodies);
+    for (const VertexInTet& v : oracle) {
+      found_self += v.body == 5 && v.penetrated_body == 5 ? 1 : 0;
+      found_at_boundary += v.body <= 2 && v.penetrated_body <= 2 ? 1 : 0;
+    }
+
+    // Second method for the skip count.
+    long long expected_skips = 0;
+    for (int b = 0; b < static_cast<int>(bodies.size()); ++b) {
+      const CollisionBody& pb = bodies[static_cast<size_t>(b)];
+      Aabb bounds;
+      for (const Vec3& p : pb.positions) bounds.extend(p);
+      std::vector<Aabb> near_boxes;
+      for (int a = 0; a < static_cast<int>(bodies.size()); ++a) {
+        if (!filter.allowed(a, b)) continue;
+        Aabb near;
+        for (const Vec3& p : bodies[static_cast<size_t>(a)].positions) {
+          if ((p.array() >= bounds.min.array()).all() && (p.array() <= bounds.max.array()).all()) near.extend(p);
+        }
+        if (!near.empty()) near_boxes.push_back(near);
+      }
+      if (near_boxes.empty()) continue;  // the body is skipped whole, its tets not counted
+      for (const TetIndices& tet : pb.mesh->tets()) {
+        Aabb box;
+        for (int k : tet) box.extend(pb.positions[static_cast<size_t>(k)]);
+        bool meets = false;
+        for (const Aabb& near : near_boxes) meets = meets || box.overlaps(near);
+        expected_skips += meets ? 0 : 1;
+      }
+    }
+    EXPECT_EQ(hash.stats().tets_skipped_partner_boxes, expected_skips);
+    skipped_total += expected_skips;
+  }
+  EXPECT_GT(found_at_boundary, 6 * 18);  // B and 1 share 9 vertices each way, plus the edge and corner
+  EXPECT_GT(found_self, 6 * 10);         // the fold overlaps itself
+  EXPECT_GT(skipped_total, 6 * 50);      // and the skip happens
 }
 
 // A body that integrated to NaN or infinity must not take the hash down: the occupancy bitmap was

@@ -1,0 +1,38 @@
+#include "sim/collision/box_set_outcodes.h"
+
+namespace pliant {
+
+void BoxSetOutcodes::clear_boxes() {
+  boxes_.clear();
+  every_box_ = 0;
+}
+
+void BoxSetOutcodes::add_box(const Aabb& box) {
+  if (boxes_.size() < static_cast<size_t>(max_boxes)) {
+    every_box_ |= std::uint64_t{1} << boxes_.size();
+    boxes_.push_back(box);
+    return;
+  }
+  boxes_.back().extend(box.min);
+  boxes_.back().extend(box.max);
+}
+
+void BoxSetOutcodes::assign_codes(std::span<const Vec3> points) {
+  if (codes_.size() < points.size()) codes_.resize(points.size());
+  for (size_t v = 0; v < points.size(); ++v) {
+    const Vec3& x = points[v];
+    Sides sides{};
+    for (size_t k = 0; k < boxes_.size(); ++k) {
+      const Aabb& box = boxes_[k];
+      const std::uint64_t bit = std::uint64_t{1} << k;
+      for (int axis = 0; axis < 3; ++axis) {
+        // Comparisons with a NaN are false: a NaN coordinate sets no bit on its axis.
+        sides[static_cast<size_t>(2 * axis)] |= x[axis] < box.min[axis] ? bit : 0;
+        sides[static_cast<size_t>(2 * axis + 1)] |= x[axis] > box.max[axis] ? bit : 0;
+      }
+    }
+    codes_[v] = sides;
+  }
+}
+
+}  // namespace pliant

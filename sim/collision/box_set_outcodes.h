@@ -1,0 +1,60 @@
+// Cohen-Sutherland out-codes of a body's vertices against a set of up to 64 boxes at once, for the
+// spatial hash's pass 2 (session 16, issues #4 and #8).
+//
+// Design note. In a pile every body's bounds are covered by the union of its partners' bounds, so
+// one box per penetrated body culls nothing (session 11). What a tet of body b can contain is a
+// partner's inserted vertex inside b's bounds: per partner, the box of those vertices (for two
+// touching fruits, the box of the lens where they overlap) is a small part of b. A tet whose box
+// meets none of these boxes needs no look-up. Each vertex gets six bit planes, one per side of a box
+// (x below min, x above max, y below, ...), bit k for box k; a tet misses box k exactly when its four
+// corners share a side bit of k (its box lies beyond that side), so the tet misses every box when the
+// OR over the six sides of the AND over the four corners holds every box's bit. This is the closed
+// box-overlap test of Aabb::overlaps, decided from the corners without building the tet's box; a
+// coordinate that is not a number sets no bit on its axis (a corner with none keeps its tet). Boxes
+// beyond the 64th are merged into the 64th (a coarser box: still exact, only rejects less).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "sim/math_types.h"
+
+namespace pliant {
+
+/// Per-vertex side bits against a set of boxes; rejects the tets whose box meets none of them.
+class BoxSetOutcodes {
+ public:
+  /// Most boxes kept apart (one bit each); later ones are merged into the last.
+  static constexpr int max_boxes = 64;
+
+  /// Forgets the boxes (the codes are stale until assign_codes).
+  void clear_boxes();
+  /// Adds a (non-empty) box; beyond max_boxes it is merged into the last one.
+  void add_box(const Aabb& box);
+  /// Boxes held (at most max_boxes).
+  int box_count() const { return static_cast<int>(boxes_.size()); }
+  /// The side bits of every point against the boxes held.
+  void assign_codes(std::span<const Vec3> points);
+  /// Whether the box of the tet with corners `tet` (indices into the coded points) meets none of the
+  /// boxes (closed: a shared face, edge or corner is a meeting).
+  bool misses_every_box(const TetIndices& tet) const {
+    const Sides& a = codes_[static_cast<size_t>(tet[0])];
+    const Sides& b = codes_[static_cast<size_t>(tet[1])];
+    const Sides& c = codes_[static_cast<size_t>(tet[2])];
+    const Sides& d = codes_[static_cast<size_t>(tet[3])];
+    std::uint64_t missed = 0;
+    for (size_t s = 0; s < 6; ++s) missed |= a[s] & b[s] & c[s] & d[s];
+    return missed == every_box_;
+  }
+
+ private:
+  /// Per side (x < min, x > max, y < min, y > max, z < min, z > max): bit k for box k.
+  using Sides = std::array<std::uint64_t, 6>;
+  std::vector<Aabb> boxes_;
+  std::vector<Sides> codes_;        ///< per point of the last assign_codes
+  std::uint64_t every_box_ = 0;     ///< bit k set for each box held
+};
+
+}  // namespace pliant
