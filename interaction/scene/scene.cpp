@@ -163,12 +163,16 @@ ContactSettings read_contact(const JsonReader& j) {
   c.friction = j.boolean_or("friction", c.friction);
   c.linearised_search = j.boolean_or("linearised_search", c.linearised_search);
   if (auto it = j.find("limit_friction_move")) {
-    // true | false | "charge_returns" (session 15: the limit without session 10's excuse for returns).
+    // false (the default: no limit) | true (session 10's limit: returns excused) | "charge_returns"
+    // (session 15: charged everywhere) | "charge_deformable_returns" (session 16: charged unless every
+    // friction partner of the body is an instrument).
     if (it->is_string()) {
-      it->choice({"charge_returns"});
+      const std::string rule = it->choice({"charge_deformable_returns", "charge_returns"});
       c.limit_friction_move = c.limit_friction_move_charges_returns = true;
+      c.limit_friction_move_excuses_instrument_returns = rule == "charge_deformable_returns";
     } else {
       c.limit_friction_move = it->boolean();
+      c.limit_friction_move_charges_returns = false;
     }
   }
   if (auto it = j.find("implicit_correction")) {

@@ -176,6 +176,15 @@ struct ContactSettings {
   /// probe's tool force changes with this on (by up to 0.30 N from t = 1.388 s).
   /// false: session 10's limit, bit for bit.
   bool limit_friction_move_charges_returns = false;
+  /// Beyond the paper, opt-in (session 16, docs/stability.md "Session 16"; scene value
+  /// `"limit_friction_move": "charge_deformable_returns"`): with limit_friction_move_charges_returns,
+  /// a body whose friction moves of the step were all against kinematic partners (instruments) keeps
+  /// session 10's excuse for returns; a body with a friction move against a deformable (or sleeping)
+  /// partner has its returns charged. The probe's tool force is then byte-identical; not the default
+  /// because Stability.SurfaceMilligramBodyWithASliver fails (0 -> 23.4x, the charge between the 1 mg
+  /// body and its block) and the instrument rows at dt 20 ms lose the charge's gain.
+  /// false: session 15's charge bit for bit.
+  bool limit_friction_move_excuses_instrument_returns = false;
 };
 
 }  // namespace pliant

@@ -124,7 +124,8 @@ void apply_contact_velocity_update(std::span<Body* const> bodies, std::span<cons
     // docs/stability.md M6a).
     auto record_move = [&](int body, int v, const Vec3& dv) {
       if (friction_moves != nullptr) {
-        friction_moves->record(*bodies[static_cast<size_t>(body)], static_cast<size_t>(body), v, dv, dt);
+        const Body& partner = body == contact.body ? n : m;
+        friction_moves->record(*bodies[static_cast<size_t>(body)], static_cast<size_t>(body), v, dv, dt, partner);
       }
     };
     auto apply = [&](const Vec3& j, bool move_positions) {

@@ -117,7 +117,7 @@ void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
     // velocities before this pass's impulses: a normal impulse changes a velocity, not a position)
     // plus the moves' rigid part, which is kept. Charging returns, there is none: a move that puts
     // a stuck patch back where the integration relaxed it from is charged as new strain.
-    if (charge_returns) {
+    if (charge_returns && (deformable_partner[i] || !excuse_instrument_returns)) {
       base.clear();
     } else {
       const std::vector<Vec3>& v0 = start_velocities[i];

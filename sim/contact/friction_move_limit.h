@@ -75,6 +75,8 @@ struct FrictionMoveLedger {
   std::vector<std::vector<Vec3>> moves;  ///< per body slot: dt dv summed per vertex (m); empty: none
   std::vector<double> budget;            ///< per body slot: sum m |dv|^2 / 2 of its impulses (J)
   std::vector<char> touched;             ///< per body slot: has a move this pass
+  /// per body slot: a move this pass came from a contact whose partner is not kinematic
+  std::vector<char> deformable_partner;
   std::vector<Vec3> deforming;           ///< scratch for friction_move_deforming_part
   std::vector<std::vector<Vec3>> start_velocities;  ///< per body slot: v at the pass's start (m/s)
   std::vector<Vec3> base;                ///< scratch: the step's displacement d (m)
@@ -82,6 +84,10 @@ struct FrictionMoveLedger {
   /// Charge the whole deforming part, returns of stuck patches included (no base d):
   /// ContactSettings::limit_friction_move_charges_returns. Set by the caller before the pass.
   bool charge_returns = false;
+  /// With charge_returns: a body whose every friction move of the pass is against a kinematic
+  /// partner (an instrument) keeps session 10's excuse for returns (ContactSettings::
+  /// limit_friction_move_excuses_instrument_returns). Set by the caller before the pass.
+  bool excuse_instrument_returns = false;
   /// Starts a pass over `bodies` with time step `step` (s): keeps the deformable bodies' velocities,
   /// the ones the integration moved the positions with (x_{n+1} = x_n + dt v_{n+1}).
   void begin(std::span<Body* const> bodies, double step) {
@@ -94,9 +100,12 @@ struct FrictionMoveLedger {
     }
     budget.assign(bodies.size(), 0.0);
     touched.assign(bodies.size(), 0);
+    deformable_partner.assign(bodies.size(), 0);
   }
-  /// Records the friction velocity change `dv` (m/s) of `vertex` of slot `slot`, moved by dt dv.
-  void record(const Body& body, size_t slot, int vertex, const Vec3& dv, double dt) {
+  /// Records the friction velocity change `dv` (m/s) of `vertex` of slot `slot`, moved by dt dv,
+  /// from a contact with `partner` (the other side).
+  void record(const Body& body, size_t slot, int vertex, const Vec3& dv, double dt, const Body& partner) {
+    if (!partner.is_kinematic()) deformable_partner[slot] = 1;
     if (!touched[slot]) {
       touched[slot] = 1;
       moves[slot].assign(body.positions.size(), Vec3::Zero());
@@ -106,7 +115,8 @@ struct FrictionMoveLedger {
   }
   /// Takes back (1 - s) of each touched body's deforming part r, s = friction_move_scale of r on
   /// top of the step's displacement d = dt v (v the velocities at the pass's start) plus the
-  /// moves' rigid part; with charge_returns, of r alone (d = 0).
+  /// moves' rigid part; with charge_returns, of r alone (d = 0), except, with
+  /// excuse_instrument_returns, for a body whose moves were all against kinematic partners.
   void limit(std::span<Body* const> bodies);
 };
 

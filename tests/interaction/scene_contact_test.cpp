@@ -44,13 +44,16 @@ TEST(SceneFormat, ContactHeldForceFractionReachesTheWorld) {
   expect_fraction_key("held_force_fraction", 0.0, &ContactSettings::held_force_fraction);
 }
 
-// contact.limit_friction_move (docs/stability.md M6a): off by default, a scene may turn it on, or
-// on without session 10's excuse for returns ("charge_returns", session 15); any other value names
-// its path.
+// contact.limit_friction_move (docs/stability.md M6a): off by default; a scene may turn it on with
+// returns excused (true, session 10), charged everywhere ("charge_returns", session 15) or charged
+// unless a body's friction partners are all instruments ("charge_deformable_returns", session 16);
+// any other value names its path.
 TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   nlohmann::json j = probe_coarse_json();
-  EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.limit_friction_move);
-  EXPECT_FALSE(parse_scene(j, "probe_coarse.json", ".").world.contact.limit_friction_move_charges_returns);
+  const ContactSettings defaults = parse_scene(j, "probe_coarse.json", ".").world.contact;
+  EXPECT_FALSE(defaults.limit_friction_move);
+  EXPECT_FALSE(defaults.limit_friction_move_charges_returns);
+  EXPECT_FALSE(defaults.limit_friction_move_excuses_instrument_returns);
   j["contact"]["limit_friction_move"] = true;
   const Scene scene = parse_scene(j, "probe_coarse.json", ".");
   EXPECT_TRUE(scene.world.contact.limit_friction_move);
@@ -60,6 +63,12 @@ TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   const Scene charging = parse_scene(j, "probe_coarse.json", ".");
   EXPECT_TRUE(charging.world.contact.limit_friction_move);
   EXPECT_TRUE(instantiate_scene(charging).world->settings().contact.limit_friction_move_charges_returns);
+  EXPECT_FALSE(charging.world.contact.limit_friction_move_excuses_instrument_returns);
+  j["contact"]["limit_friction_move"] = "charge_deformable_returns";
+  const ContactSettings named = parse_scene(j, "probe_coarse.json", ".").world.contact;
+  EXPECT_TRUE(named.limit_friction_move);
+  EXPECT_TRUE(named.limit_friction_move_charges_returns);
+  EXPECT_TRUE(named.limit_friction_move_excuses_instrument_returns);
   for (const nlohmann::json& bad : {nlohmann::json(0.5), nlohmann::json("charge")}) {
     j["contact"]["limit_friction_move"] = bad;
     try {

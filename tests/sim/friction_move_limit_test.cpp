@@ -217,7 +217,8 @@ TEST(FrictionMoveLimit, FrictionOnAMilligramSliverBlockStoresNoMoreThanItRemoves
 // move); the pre-stress-blind bound (the move charged alone) would have taken back 1 - 1 /
 // (omega dt) of it, omega^2 = k / m with k = vertex_stiffness_along: the stuck vertex would slip.
 // Session 15's opt-in charges the return (limit_friction_move_charges_returns): it must be that
-// bound, 1 / (omega dt) kept, and touch no other vertex.
+// bound, 1 / (omega dt) kept, and touch no other vertex. Session 16's rule keeps the return against
+// the instrument and charges it against a sleeping deformable partner.
 TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
   Case c{.name = "surface instrument 1 MPa", .method = ContactMethod::contact_surface};
   c.partner = Partner::instrument;
@@ -290,6 +291,26 @@ TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
       EXPECT_EQ(charged[v], full[v]) << v;
     }
   }
+  // Session 16's opt-in rule ("charge_deformable_returns": limit_friction_move_excuses_instrument_returns
+  // with the charge): returns are charged unless every friction partner of the body is kinematic.
+  // Against the instrument the return stays whole (the full move, session 10); against the same block
+  // made a sleeping deformable body (the same zero inverse mass, so the same impulses: only the rule
+  // differs; the membrane stack's sleepers) it is session 15's charge, bit for bit.
+  auto stage5_rule = [&] {
+    lower.positions = x0, lower.velocities = v0;
+    std::vector<ContactImpulse> impulses;
+    std::vector<RigidModes> rigid;
+    FrictionMoveLedger ledger;
+    ledger.charge_returns = ledger.excuse_instrument_returns = true;
+    apply_contact_velocity_update(world.bodies(), contacts, dt, true, held, contacts.size(), impulses, rigid, &ledger);
+    return lower.positions;
+  };
+  EXPECT_EQ(stage5_rule(), full);
+  Body& partner = world.body(scene.upper);
+  partner.motion = BodyMotion::deformable;
+  partner.sleep.sleeping = true;
+  ASSERT_TRUE(partner.is_immovable(0));
+  EXPECT_EQ(stage5_rule(), charged);
 }
 
 }  // namespace

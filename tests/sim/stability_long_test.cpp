@@ -122,21 +122,25 @@ std::vector<Case> full_matrix() {
   // Opt-in settings for measuring them on the whole matrix (session 9, docs/stability.md M7, M10):
   // PLIANT_STABILITY_OPT_IN, a comma-separated list of anchored (ContactSettings::
   // anchored_friction_compliance), limit (limit_friction_move), charge_returns (the limit charging
-  // returns, session 15), release (release_distant_held_contacts), frictionless (friction off), on
+  // returns, session 15), charge_deformable_returns (charging them unless every friction partner of
+  // the body is an instrument, session 16), release (release_distant_held_contacts), frictionless (friction off), on
   // the contact-surface cases.
   if (const char* env = std::getenv("PLIANT_STABILITY_OPT_IN"); env != nullptr) {
-    bool anchored = false, limit = false, charge_returns = false, release = false, frictionless = false;
+    bool anchored = false, limit = false, charge_returns = false, release = false, frictionless = false,
+         deformable_returns = false;
     std::stringstream list(env);
     for (std::string name; std::getline(list, name, ',');) {
       bool* flag = name == "anchored" ? &anchored
                    : name == "limit"  ? &limit
                    : name == "charge_returns" ? &charge_returns
+                   : name == "charge_deformable_returns" ? &deformable_returns
                    : name == "release" ? &release
                    : name == "frictionless" ? &frictionless
                                             : nullptr;
       if (flag == nullptr) {
         std::fprintf(stderr,
-                     "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, charge_returns, release, frictionless)\n",
+                     "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, charge_returns, charge_deformable_returns, release, "
+                     "frictionless)\n",
                      name.c_str());
         std::exit(2);
       }
@@ -144,12 +148,15 @@ std::vector<Case> full_matrix() {
     }
     for (Case& c : cases) {
       if (c.method != ContactMethod::contact_surface) continue;
-      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, charge_returns, release,
+      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, charge_returns, deformable_returns, release,
                          frictionless](ContactSettings& s) {
         if (tweak) tweak(s);
         s.anchored_friction_compliance = s.anchored_friction_compliance || anchored;
-        s.limit_friction_move = s.limit_friction_move || limit || charge_returns;
-        s.limit_friction_move_charges_returns = s.limit_friction_move_charges_returns || charge_returns;
+        s.limit_friction_move = s.limit_friction_move || limit || charge_returns || deformable_returns;
+        s.limit_friction_move_charges_returns =
+            s.limit_friction_move_charges_returns || charge_returns || deformable_returns;
+        s.limit_friction_move_excuses_instrument_returns =
+            s.limit_friction_move_excuses_instrument_returns || deformable_returns;
         s.release_distant_held_contacts = s.release_distant_held_contacts || release;
         s.friction = s.friction && !frictionless;
       };
