@@ -18,6 +18,24 @@ void BoxSetOutcodes::add_box(const Aabb& box) {
 }
 
 void BoxSetOutcodes::assign_codes(std::span<const Vec3> points) {
+  narrow_ = boxes_.size() <= static_cast<size_t>(narrow_boxes);
+  if (narrow_) {
+    if (narrow_codes_.size() < points.size()) narrow_codes_.resize(points.size());
+    for (size_t v = 0; v < points.size(); ++v) {
+      const Vec3& x = points[v];
+      std::uint64_t sides = 0;
+      for (size_t k = 0; k < boxes_.size(); ++k) {
+        const Aabb& box = boxes_[k];
+        for (int axis = 0; axis < 3; ++axis) {
+          // Comparisons with a NaN are false: a NaN coordinate sets no bit on its axis.
+          sides |= static_cast<std::uint64_t>(x[axis] < box.min[axis]) << (16 * axis + k);
+          sides |= static_cast<std::uint64_t>(x[axis] > box.max[axis]) << (16 * axis + 8 + k);
+        }
+      }
+      narrow_codes_[v] = sides;
+    }
+    return;
+  }
   if (codes_.size() < points.size()) codes_.resize(points.size());
   for (size_t v = 0; v < points.size(); ++v) {
     const Vec3& x = points[v];

@@ -12,6 +12,9 @@
 // box-overlap test of Aabb::overlaps, decided from the corners without building the tet's box; a
 // coordinate that is not a number sets no bit on its axis (a corner with none keeps its tet). Boxes
 // beyond the 64th are merged into the 64th (a coarser box: still exact, only rejects less).
+// Session 17: with up to 8 boxes (the probe's one partner, a pair of bodies, most of a pile's fruits)
+// a vertex's six side bytes fit one 64-bit word, so a tet's test is three ANDs and a fold of the
+// bytes instead of 24 loads and ANDs; the same decision, bit for bit.
 #pragma once
 
 #include <array>
@@ -28,6 +31,8 @@ class BoxSetOutcodes {
  public:
   /// Most boxes kept apart (one bit each); later ones are merged into the last.
   static constexpr int max_boxes = 64;
+  /// Up to this many boxes, a vertex's codes are one word (a byte per side).
+  static constexpr int narrow_boxes = 8;
 
   /// Forgets the boxes (the codes are stale until assign_codes).
   void clear_boxes();
@@ -40,6 +45,16 @@ class BoxSetOutcodes {
   /// Whether the box of the tet with corners `tet` (indices into the coded points) meets none of the
   /// boxes (closed: a shared face, edge or corner is a meeting).
   bool misses_every_box(const TetIndices& tet) const {
+    if (narrow_) {
+      // Byte s of a word is side s; the AND keeps the sides all four corners share, the fold ORs
+      // the six bytes into the lowest.
+      std::uint64_t shared = narrow_codes_[static_cast<size_t>(tet[0])] & narrow_codes_[static_cast<size_t>(tet[1])] &
+                             narrow_codes_[static_cast<size_t>(tet[2])] & narrow_codes_[static_cast<size_t>(tet[3])];
+      shared |= shared >> 32;
+      shared |= shared >> 16;
+      shared |= shared >> 8;
+      return (shared & 0xffu) == every_box_;
+    }
     const Sides& a = codes_[static_cast<size_t>(tet[0])];
     const Sides& b = codes_[static_cast<size_t>(tet[1])];
     const Sides& c = codes_[static_cast<size_t>(tet[2])];
@@ -53,7 +68,9 @@ class BoxSetOutcodes {
   /// Per side (x < min, x > max, y < min, y > max, z < min, z > max): bit k for box k.
   using Sides = std::array<std::uint64_t, 6>;
   std::vector<Aabb> boxes_;
-  std::vector<Sides> codes_;        ///< per point of the last assign_codes
+  std::vector<Sides> codes_;        ///< per point of the last assign_codes (more than narrow_boxes boxes)
+  std::vector<std::uint64_t> narrow_codes_;  ///< per point, byte s = side s (at most narrow_boxes boxes)
+  bool narrow_ = false;             ///< the last assign_codes wrote narrow_codes_
   std::uint64_t every_box_ = 0;     ///< bit k set for each box held
 };
 

@@ -1,6 +1,7 @@
 // What collision detection (stage 1) and penetration depth (stage 2) hand to the response stages.
 #pragma once
 
+#include <algorithm>
 #include <span>
 #include <vector>
 
@@ -74,6 +75,12 @@ class CollisionFilter {
       : n_(body_count), allowed_(static_cast<size_t>(body_count * body_count), 0) {}
   int body_count() const { return n_; }
   bool allowed(int a, int b) const { return allowed_[static_cast<size_t>(a * n_ + b)] != 0; }
+  /// The first body b >= from with allowed(a, b), or body_count() if there is none (a scan of row a,
+  /// for callers that need one allowed partner, not all of them). allowed is symmetric (set writes both).
+  int next_allowed(int a, int from) const {
+    const auto row = allowed_.begin() + static_cast<std::ptrdiff_t>(a) * n_;
+    return static_cast<int>(std::find(row + from, row + n_, char{1}) - row);
+  }
   void set(int a, int b, bool allowed) {
     allowed_[static_cast<size_t>(a * n_ + b)] = allowed ? 1 : 0;
     allowed_[static_cast<size_t>(b * n_ + a)] = allowed ? 1 : 0;

@@ -1,7 +1,8 @@
 // Stage 1: optimized spatial hashing (Teschner et al., VMV 2003; algorithms.md section 1).
 //
-// Design note. All bodies share one hash table of prime size n (next prime above 3x the hashed
-// vertex count, grown but never shrunk so the allocation is reused). Buckets carry a time stamp
+// Design note. All bodies share one hash table of prime size n (next prime above 3x the inserted
+// vertex count, grown but never shrunk so the allocation is reused; session 17: the inserted, not
+// all hashed, vertices). Buckets carry a time stamp
 // instead of being cleared: a bucket whose stamp is not the current step's is empty. Each bucket is
 // a singly linked list threaded through a flat array of hashed vertices, each of which keeps a copy
 // of its position and its integer cell, so pass 2 reads one contiguous record per candidate and
@@ -29,12 +30,16 @@
 // a pile every fruit lies inside the union of its partners' bounds, but only its rim's cells hold
 // a neighbour's vertex. A body no partner's inserted vertices reach is skipped whole. Exact: the
 // skipped tets are those whose look-ups would find nothing.
+// Session 17: a body's partners are the bodies it may touch whose bounds overlap its own, found by
+// a grid over the bodies' bounds (BoundsOverlap) instead of a loop over every body in each of the
+// per-body passes: those loops were B^2, the part of detection that grew faster than the tets.
 #pragma once
 
 #include <cstdint>
 #include <span>
 #include <vector>
 
+#include "sim/collision/bounds_overlap.h"
 #include "sim/collision/box_set_outcodes.h"
 #include "sim/collision/contact_types.h"
 #include "sim/collision/rigid_tet_grid.h"
@@ -45,14 +50,14 @@ namespace pliant {
 struct SpatialHashOptions {
   /// Cell size as a multiple of the average edge length (paper: optimum near 1).
   double cell_size_factor = 1.0;
-  /// Table size: the next prime above this multiple of the hashed vertex count.
+  /// Table size: the next prime above this multiple of the inserted vertex count.
   double table_size_factor = 3.0;
 };
 
 /// What the last detect() did (for benchmarks and diagnostics).
 struct SpatialHashStats {
-  int hashed_vertices = 0;   ///< vertices of the bodies taking part in pass 1 (sizes the table)
-  int inserted_vertices = 0; ///< of those, inserted: inside the bounds of a body they may touch
+  int hashed_vertices = 0;   ///< vertices of the bodies taking part in pass 1
+  int inserted_vertices = 0; ///< of those, inserted: inside the bounds of a body they may touch (sizes the table)
   int table_size = 0;        ///< prime number of buckets
   double cell_size = 0.0;    ///< edge of a cubic cell (m)
   long long tets_visited = 0;       ///< tets whose cells were looked up in pass 2
@@ -114,7 +119,10 @@ class SpatialHash {
   std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its inserted vertices
   std::vector<Aabb> partner_boxes_;     ///< pass 1 scratch: bounds of the bodies one body may touch
   BoxSetOutcodes partner_outcodes_;     ///< pass 2 scratch: per partner, its inserted vertices in the penetrated body's bounds
-  std::vector<char> partner_;           ///< pass 2 scratch: filter row of the penetrated body
+  std::vector<char> partner_;           ///< pass 2 scratch: 1 for the bodies in partners_
+  std::vector<int> partners_;           ///< pass 2 scratch: the penetrated body's partners (overlapping bounds, allowed), ascending
+  std::vector<char> takes_part_;        ///< per body: hashes its vertices or has its tets tested
+  BoundsOverlap bounds_overlap_;        ///< the body pairs whose bounds overlap (this detect's)
   std::vector<VertexInTet> candidates_;
   std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
   std::vector<int> hashed_begin_;       ///< per body (and one past the last): its first entry in hashed_

@@ -38,7 +38,7 @@ TEST(BoxSetOutcodes, RejectsExactlyTheTetsWhoseBoxMeetsNoBox) {
   BoxSetOutcodes codes;  // reused: boxes and codes of one round must not leak into the next
   long long rejected = 0, kept = 0, touching = 0;
   for (int round = 0; round < 200; ++round) {
-    std::vector<Aabb> boxes(static_cast<size_t>(round % 7));  // 0 to 6 boxes, small ones
+    std::vector<Aabb> boxes(static_cast<size_t>(round % 13));  // 0 to 12 boxes, small ones: one word per vertex up to 8
     codes.clear_boxes();
     for (Aabb& box : boxes) {
       box = grid_box(rng);

@@ -316,6 +316,50 @@ TEST(SpatialHash, PileInRigidDishMatchesBruteForceAndTheCellWalk) {
   EXPECT_GT(static_cast<int>(oracle.size()) - in_boxes - boxes_in, 50) << in_boxes << " " << boxes_in;  // and in each other
 }
 
+// More bodies than BoundsOverlap compares pair by pair (session 17): pass 1 and pass 2 read each
+// body's partners from the body-level grid, not from every body. 64 balls (one self-colliding, one
+// inactive) on a jittered 4 x 4 x 4 lattice sunk into their neighbours, in a rigid dish floor (a box
+// far larger than the grid's cells: the large list), some pairs filtered out at random; two
+// far-apart piles in the second trial. Entry for entry the brute force, which asks every body.
+TEST(SpatialHash, ManyBodiesMatchBruteForceThroughTheBodyGrid) {
+  const auto ball = make_sphere_mesh({0.015, 20, 1});
+  const auto floor = make_box_mesh({Vec3(0.3, 0.3, 0.02), 2, 2, 1});
+  std::mt19937 rng(1717);
+  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+  std::bernoulli_distribution coin(0.9);
+  SpatialHash hash;
+  for (int trial = 0; trial < 2; ++trial) {
+    const double spacing = 0.0285 - 0.001 * trial;
+    std::vector<std::vector<Vec3>> x;
+    for (int n = 0; n < 64; ++n) {
+      const int i = n % 4, j = (n / 4) % 4, k = n / 16;
+      Vec3 centre = spacing * Vec3(i, j, k) + Vec3(jitter(rng), jitter(rng), jitter(rng));
+      if (trial == 1 && n >= 32) centre += Vec3(1.0, 0.0, -2.0 * spacing);  // a second pile, far away
+      x.push_back(posed(*ball, random_rotation(rng), centre));
+    }
+    x.push_back(posed(*floor, Quat::Identity(), Vec3(0.05, 0.05, -0.023)));  // balls of the first row sink ~2 mm
+    std::vector<CollisionBody> bodies = bodies_of(*ball, x);
+    bodies[64].mesh = floor.get();
+    bodies[5].self_collision = true;
+    bodies[17].active = false;
+    CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+    for (int a = 0; a < 65; ++a) {
+      for (int b = a + 1; b < 65; ++b) {
+        if (filter.allowed(a, b) && !coin(rng)) filter.set(a, b, false);
+      }
+    }
+    std::vector<VertexInTet> found;
+    hash.detect(bodies, filter, found);
+    const auto oracle = brute_force(bodies, filter);
+    SCOPED_TRACE(trial);
+    expect_same(found, oracle, bodies);
+    int in_floor = 0;
+    for (const VertexInTet& v : oracle) in_floor += v.penetrated_body == 64 ? 1 : 0;
+    EXPECT_GT(in_floor, 10);                                 // balls really lie in the floor
+    EXPECT_GT(static_cast<int>(oracle.size()) - in_floor, 40);  // and in each other (57 and 82)
+  }
+}
+
 // Pass 2 skips a tet whose box meets no partner's box of inserted vertices inside the penetrated
 // body's bounds (session 16, BoxSetOutcodes). Its edge cases, against the brute force entry for
 // entry: blocks that touch only at a shared face (the partner's vertices inside the bounds form a
