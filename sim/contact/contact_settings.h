@@ -193,6 +193,9 @@ struct ContactSettings {
   /// relaxation (omega dt below ~1: the probe's dragged patch, cost <= 0.37 of that budget) is kept;
   /// one that re-strains a patch the step let relax quasi-statically (omega dt >> 1: the matrix's
   /// instrument at dt 20 ms, nu 0.499, cost 10-800x) is scaled. Overrides the two settings above.
+  /// Off by default: Stability.SurfaceMilligramBodyWithASliver fails with it (0 -> 86.7x: the 1 mg
+  /// block's returns are quasi-static and charged, and M6b's search bursts then land higher), and the
+  /// membrane stack rests with it at 1 of 3 starts (charge_returns: 3 of 3).
   /// false: the rule those settings select, bit for bit.
   bool limit_friction_move_energy_flow = false;
 };

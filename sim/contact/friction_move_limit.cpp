@@ -4,8 +4,6 @@
 
 #include <Eigen/Dense>
 
-#include "sim/model/rotation_extraction.h"
-
 namespace pliant {
 
 double vertex_stiffness_along(const Body& body, int vertex, const Vec3& direction) {
@@ -86,12 +84,18 @@ double model_move_energy(const Body& body, std::span<const Vec3> move) {
       }
       // Rows of rest_edges^-1 are the rest grad N_1..3; grad N_0 = -(their sum).
       const Mat3 inverse = rest_edges.inverse();
-      Quat q = Quat::Identity();
-      extract_rotation(edges * inverse, q);
+      // The rotation of F by its SVD, U diag(1, 1, det(U V^T)) V^T (the polar rotation; for an
+      // inverted tet the reflection-fixed one, as the model's). Not extract_rotation from the
+      // identity: without the model's warm start its iteration can diverge on a tet turned by more
+      // than 90 degrees (a rolled fruit: overflow, session 17).
+      const Eigen::JacobiSVD<Mat3> svd(edges * inverse, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Mat3 u_factor = svd.matrixU();
+      if ((u_factor * svd.matrixV().transpose()).determinant() < 0.0) u_factor.col(2) *= -1.0;
+      const Mat3 rotation = u_factor * svd.matrixV().transpose();
       Mat3 grad_u = Mat3::Zero();
       const Vec3& u0 = move[static_cast<size_t>(tet[0])];
       for (int a = 1; a < 4; ++a) grad_u += (move[static_cast<size_t>(tet[static_cast<size_t>(a)])] - u0) * inverse.row(a - 1);
-      const Mat3 h = q.toRotationMatrix().transpose() * grad_u;
+      const Mat3 h = rotation.transpose() * grad_u;
       const Mat3 e = 0.5 * (h + h.transpose());
       energy += volume * (mu * e.squaredNorm() + 0.5 * lambda * e.trace() * e.trace());
     }

@@ -60,7 +60,7 @@ double move_energy(const Body& body, std::span<const Vec3> move);
 /// shape is the same at rest but grows as 1 / (current size)^2 in a compressed tet (session 17: up to
 /// 4,400x the model's second difference under the probe, where this stays within 0.99-1.19x).
 /// Visits only the tets of the moved vertices. Where the sources are silent: the estimate for any
-/// body (Teschner's explicit model included), R from extract_rotation started at the identity.
+/// body (Teschner's explicit model included), R from the SVD of F (reflection-fixed if inverted).
 double model_move_energy(const Body& body, std::span<const Vec3> move);
 
 /// Strain-energy terms of adding a move r to a displacement field d (m, one per vertex each) in

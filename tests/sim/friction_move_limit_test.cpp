@@ -124,6 +124,16 @@ TEST(FrictionMoveLimit, ModelMoveEnergyIsTheModelsOwnEnergyInACompressedRotatedT
                                           2.0 * tet.model->elastic_energy(tet.positions));
   EXPECT_NEAR(second_difference, closed_form, 1e-4 * closed_form);
   EXPECT_NEAR(move_energy(tet, move), closed_form / c, 1e-9 * closed_form / c);
+  // Turned about z until tr F = 2 cos(angle) + c is 1e-7 (the fruit pile's rolled tets had tr F
+  // ~3e-7: a rotation iteration started at the identity takes a step of ~1 / tr F there and
+  // overflowed) and nearly over (3 rad): the same closed form, and no overflow or invalid operation
+  // (the tests trap them).
+  for (const double angle : {std::acos(0.5 * (1e-7 - c)), 3.0}) {
+    const Mat3 turned = Eigen::AngleAxisd(angle, Vec3(0, 0, 1)).toRotationMatrix();
+    for (size_t v = 0; v < rest.size(); ++v) tet.positions[v] = turned * Vec3(rest[v].x(), rest[v].y(), c * rest[v].z());
+    move[3] = u * (turned * Vec3(0, 0, 1));
+    EXPECT_NEAR(model_move_energy(tet, move), closed_form, 1e-9 * closed_form) << angle;
+  }
 
   const TetMeshPtr box_mesh = make_box_mesh({Vec3(kUpperSize, kUpperSize, kUpperHeight), 4, 4, 2});
   BodyDef box{.name = "box", .mesh = box_mesh, .material = material(1e4, 0.3, 1000.0)};
