@@ -249,6 +249,7 @@ const StepReport& World::step(double dt, StepProfiler* profiler) {
     saved_poses_[i] = slots_[i]->pose;
   }
   contact_surface_->save_held_forces();
+  contact_surface_->set_step_start_velocities(&saved_velocities_);
 
   if (!settings_.sleep.enabled) {
     for (Body* b : body_view_) {

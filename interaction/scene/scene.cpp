@@ -165,10 +165,13 @@ ContactSettings read_contact(const JsonReader& j) {
   if (auto it = j.find("limit_friction_move")) {
     // false (the default: no limit) | true (session 10's limit: returns excused) | "charge_returns"
     // (session 15: charged everywhere) | "charge_deformable_returns" (session 16: charged unless every
-    // friction partner of the body is an instrument).
+    // friction partner of the body is an instrument) | "energy_flow" (session 17: returns included,
+    // in the model's stiffness, against the impulses' kinetic energy and the step's kinetic dissipation).
     if (it->is_string()) {
-      const std::string rule = it->choice({"charge_deformable_returns", "charge_returns"});
-      c.limit_friction_move = c.limit_friction_move_charges_returns = true;
+      const std::string rule = it->choice({"charge_deformable_returns", "charge_returns", "energy_flow"});
+      c.limit_friction_move = true;
+      c.limit_friction_move_energy_flow = rule == "energy_flow";
+      c.limit_friction_move_charges_returns = rule != "energy_flow";
       c.limit_friction_move_excuses_instrument_returns = rule == "charge_deformable_returns";
     } else {
       c.limit_friction_move = it->boolean();

@@ -36,6 +36,10 @@ class ContactResponse {
   virtual void restore_held_forces() {}
   /// The contacts of the last step that still hold a force (body indices are slots); empty if none.
   virtual std::span<const VertexContact> held_contacts() const { return {}; }
+  /// The bodies' velocities at the step's start (per slot; kept by the world for its own restore),
+  /// for responses that book the integration's energy flow (ContactSettings::
+  /// limit_friction_move_energy_flow). Not owned; valid through the step.
+  virtual void set_step_start_velocities(const std::vector<std::vector<Vec3>>* velocities) { (void)velocities; }
 };
 
 }  // namespace pliant

@@ -185,6 +185,19 @@ struct ContactSettings {
   /// body and its block) and the instrument rows at dt 20 ms lose the charge's gain.
   /// false: session 15's charge bit for bit.
   bool limit_friction_move_excuses_instrument_returns = false;
+  /// Beyond the paper, opt-in (session 17, docs/stability.md "Session 17"; scene value
+  /// `"limit_friction_move": "energy_flow"`): with limit_friction_move on, a body's deforming friction
+  /// move r, returns included, costs its strain energy in the model's own (corotated, rest-shape)
+  /// stiffness and is charged against the impulses' kinetic energy B plus implicit Euler's kinetic
+  /// dissipation at the moved vertices, sum m |v_{n+1} - v_n|^2 / 2. A return that undoes a dynamic
+  /// relaxation (omega dt below ~1: the probe's dragged patch, cost <= 0.37 of that budget) is kept;
+  /// one that re-strains a patch the step let relax quasi-statically (omega dt >> 1: the matrix's
+  /// instrument at dt 20 ms, nu 0.499, cost 10-800x) is scaled. Overrides the two settings above.
+  /// Off by default: Stability.SurfaceMilligramBodyWithASliver fails with it (0 -> 86.7x: the 1 mg
+  /// block's returns are quasi-static and charged, and M6b's search bursts then land higher), and the
+  /// membrane stack rests with it at 1 of 3 starts (charge_returns: 3 of 3).
+  /// false: the rule those settings select, bit for bit.
+  bool limit_friction_move_energy_flow = false;
 };
 
 }  // namespace pliant

@@ -669,6 +669,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   gather_contacts(bodies, contacts, dt, warm_start, settings.release_distant_held_contacts);
   friction_moves_.charge_returns = settings.limit_friction_move_charges_returns;
   friction_moves_.excuse_instrument_returns = settings.limit_friction_move_excuses_instrument_returns;
+  friction_moves_.energy_flow = settings.limit_friction_move_energy_flow;
   apply_contact_velocity_update(bodies, all_contacts_, dt, settings.friction, held_impulses_, lingering_begin_,
                                 impulses_, rigid_modes_, settings.limit_friction_move ? &friction_moves_ : nullptr,
                                 settings.anchored_friction_compliance);

@@ -32,6 +32,9 @@ class ContactSurfaceResponse final : public ContactResponse {
   void save_held_forces() override;
   void restore_held_forces() override;
   std::span<const VertexContact> held_contacts() const override { return held_contacts_; }
+  void set_step_start_velocities(const std::vector<std::vector<Vec3>>* velocities) override {
+    friction_moves_.step_start_velocities = velocities;
+  }
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).

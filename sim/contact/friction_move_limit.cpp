@@ -61,6 +61,48 @@ MoveEnergyTerms move_energy_terms(const Body& body, std::span<const Vec3> move, 
   return terms;
 }
 
+double model_move_energy(const Body& body, std::span<const Vec3> move) {
+  const TetMesh& mesh = *body.mesh;
+  const auto& rest = mesh.rest_positions();
+  const double mu = body.material.lame_mu(), lambda = body.material.lame_lambda();
+  double energy = 0.0;
+  for (size_t v = 0; v < move.size(); ++v) {
+    if (move[v].squaredNorm() == 0.0) continue;
+    for (int t : mesh.vertex_tets(static_cast<int>(v))) {
+      const TetIndices& tet = mesh.tets()[static_cast<size_t>(t)];
+      // Each tet once: at its first moved vertex.
+      bool first = true;
+      for (int w : tet) first = first && !(static_cast<size_t>(w) < v && move[static_cast<size_t>(w)].squaredNorm() > 0.0);
+      if (!first) continue;
+      const double volume = mesh.rest_volumes()[static_cast<size_t>(t)];
+      if (!(volume > 0.0)) continue;
+      Mat3 rest_edges, edges;  // columns X_a - X_0, x_a - x_0, a = 1..3
+      for (int a = 1; a < 4; ++a) {
+        const size_t i = static_cast<size_t>(tet[static_cast<size_t>(a)]), o = static_cast<size_t>(tet[0]);
+        rest_edges.col(a - 1) = rest[i] - rest[o];
+        edges.col(a - 1) = body.positions[i] - body.positions[o];
+      }
+      // Rows of rest_edges^-1 are the rest grad N_1..3; grad N_0 = -(their sum).
+      const Mat3 inverse = rest_edges.inverse();
+      // The rotation of F by its SVD, U diag(1, 1, det(U V^T)) V^T (the polar rotation; for an
+      // inverted tet the reflection-fixed one, as the model's). Not extract_rotation from the
+      // identity: without the model's warm start its iteration can diverge on a tet turned by more
+      // than 90 degrees (a rolled fruit: overflow, session 17).
+      const Eigen::JacobiSVD<Mat3> svd(edges * inverse, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Mat3 u_factor = svd.matrixU();
+      if ((u_factor * svd.matrixV().transpose()).determinant() < 0.0) u_factor.col(2) *= -1.0;
+      const Mat3 rotation = u_factor * svd.matrixV().transpose();
+      Mat3 grad_u = Mat3::Zero();
+      const Vec3& u0 = move[static_cast<size_t>(tet[0])];
+      for (int a = 1; a < 4; ++a) grad_u += (move[static_cast<size_t>(tet[static_cast<size_t>(a)])] - u0) * inverse.row(a - 1);
+      const Mat3 h = rotation.transpose() * grad_u;
+      const Mat3 e = 0.5 * (h + h.transpose());
+      energy += volume * (mu * e.squaredNorm() + 0.5 * lambda * e.trace() * e.trace());
+    }
+  }
+  return energy;
+}
+
 double move_energy(const Body& body, std::span<const Vec3> move) {
   return 0.5 * move_energy_terms(body, move, {}).own;
 }
@@ -113,6 +155,26 @@ void FrictionMoveLedger::limit(std::span<Body* const> bodies) {
     if (!touched[i]) continue;
     Body& body = *bodies[i];
     friction_move_deforming_part(body, moves[i], deforming);
+    if (energy_flow) {
+      // Session 17: the deforming part, returns included, in the model's own stiffness, against
+      // the impulses' kinetic energy B plus implicit Euler's kinetic dissipation at the moved
+      // vertices, sum m |v_{n+1} - v_n|^2 / 2 (docs/stability.md "Session 17").
+      double dissipation = 0.0;
+      const std::vector<Vec3>& v1 = start_velocities[i];
+      const std::vector<Vec3>* v0 = step_start_velocities != nullptr && i < step_start_velocities->size()
+                                        ? &(*step_start_velocities)[i]
+                                        : nullptr;
+      if (v0 != nullptr && v0->size() == body.positions.size()) {
+        for (size_t v = 0; v < v1.size(); ++v) {
+          if (moves[i][v].squaredNorm() > 0.0) dissipation += 0.5 * body.masses[v] * (v1[v] - (*v0)[v]).squaredNorm();
+        }
+      }
+      const MoveEnergyTerms terms{0.0, 2.0 * model_move_energy(body, deforming)};
+      const double scale = friction_move_scale(terms, budget[i] + dissipation);
+      if (scale >= 1.0) continue;
+      for (size_t v = 0; v < body.positions.size(); ++v) body.positions[v] -= (1.0 - scale) * deforming[v];
+      continue;
+    }
     // The step's displacement before the deforming part: the integration's dt v_{n+1} (the
     // velocities before this pass's impulses: a normal impulse changes a velocity, not a position)
     // plus the moves' rigid part, which is kept. Charging returns, there is none: a move that puts

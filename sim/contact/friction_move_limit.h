@@ -24,6 +24,13 @@
 // one vertex alone is still capped at min(1, 1 / (omega dt)). Not charged: the work against the
 // step start's stress (the stuck contact's stored energy, returned to, not created). Velocities
 // are untouched.
+// Session 17 (opt-in energy_flow, docs/stability.md "Session 17"): the returns are pure returns
+// (r ~ -d) on the probe and on the failing matrix rows alike; what differs is the returned mode's
+// omega dt. Measured in the model's own stiffness (model_move_energy: move_energy's current-shape
+// linear elasticity read up to 4,400x the model's energy in the probe's compressed tets), a return
+// is charged against B plus implicit Euler's kinetic dissipation at the moved vertices, sum m |v_{n+1}
+// - v_n|^2 / 2: the probe's costs at most 0.37 of that, the quasi-static returns of the dt 20 ms and
+// nu 0.499 rows 2-800x.
 #pragma once
 
 #include <span>
@@ -44,6 +51,17 @@ double vertex_stiffness_along(const Body& body, int vertex, const Vec3& directio
 /// an infinitesimal rotation of the whole body; one vertex alone: vertex_stiffness_along u^2 / 2
 /// (about the rest shape).
 double move_energy(const Body& body, std::span<const Vec3> move);
+
+/// Elastic energy (J) of moving the body's vertices by `move` (m, one per vertex) in the body's own
+/// stiffness: the corotational FEM's linear elasticity with each tet's rotation frozen at its current
+/// deformation gradient's (sum over the tets with a moved vertex of V0 (mu e:e + lambda / 2 tr(e)^2),
+/// e = sym(R^T sum_a u_a grad N_a^T), V0 and grad N of the rest tet, R the rotation of F), i.e. the
+/// second-order term of the model's energy change. move_energy's linear elasticity about the current
+/// shape is the same at rest but grows as 1 / (current size)^2 in a compressed tet (session 17: up to
+/// 4,400x the model's second difference under the probe, where this stays within 0.99-1.19x).
+/// Visits only the tets of the moved vertices. Where the sources are silent: the estimate for any
+/// body (Teschner's explicit model included), R from the SVD of F (reflection-fixed if inverted).
+double model_move_energy(const Body& body, std::span<const Vec3> move);
 
 /// Strain-energy terms of adding a move r to a displacement field d (m, one per vertex each) in
 /// linear elasticity about the current positions (as move_energy): Q(d + s r) - Q(d) = s cross +
@@ -88,6 +106,15 @@ struct FrictionMoveLedger {
   /// partner (an instrument) keeps session 10's excuse for returns (ContactSettings::
   /// limit_friction_move_excuses_instrument_returns). Set by the caller before the pass.
   bool excuse_instrument_returns = false;
+  /// The energy-flow charge (ContactSettings::limit_friction_move_energy_flow, session 17): each
+  /// touched body's deforming part r, returns included, costs model_move_energy(r) and is charged
+  /// against B plus implicit Euler's kinetic dissipation at the moved vertices this step,
+  /// sum m |v_{n+1} - v_n|^2 / 2 (v_n from step_start_velocities). Overrides charge_returns and
+  /// excuse_instrument_returns. Set by the caller before the pass.
+  bool energy_flow = false;
+  /// Per body slot: the velocities at the step's start (before the integration), for energy_flow;
+  /// null, or a slot whose size differs from its body's: no dissipation term (B alone).
+  const std::vector<std::vector<Vec3>>* step_start_velocities = nullptr;
   /// Starts a pass over `bodies` with time step `step` (s): keeps the deformable bodies' velocities,
   /// the ones the integration moved the positions with (x_{n+1} = x_n + dt v_{n+1}).
   void begin(std::span<Body* const> bodies, double step) {
@@ -116,7 +143,8 @@ struct FrictionMoveLedger {
   /// Takes back (1 - s) of each touched body's deforming part r, s = friction_move_scale of r on
   /// top of the step's displacement d = dt v (v the velocities at the pass's start) plus the
   /// moves' rigid part; with charge_returns, of r alone (d = 0), except, with
-  /// excuse_instrument_returns, for a body whose moves were all against kinematic partners.
+  /// excuse_instrument_returns, for a body whose moves were all against kinematic partners; with
+  /// energy_flow, model_move_energy(s r) <= B + the moved vertices' kinetic dissipation.
   void limit(std::span<Body* const> bodies);
 };
 

@@ -46,7 +46,8 @@ TEST(SceneFormat, ContactHeldForceFractionReachesTheWorld) {
 
 // contact.limit_friction_move (docs/stability.md M6a): off by default; a scene may turn it on with
 // returns excused (true, session 10), charged everywhere ("charge_returns", session 15) or charged
-// unless a body's friction partners are all instruments ("charge_deformable_returns", session 16);
+// unless a body's friction partners are all instruments ("charge_deformable_returns", session 16) or
+// charged in the model's stiffness against the step's kinetic energy flow ("energy_flow", session 17);
 // any other value names its path.
 TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   nlohmann::json j = probe_coarse_json();
@@ -69,6 +70,12 @@ TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   EXPECT_TRUE(named.limit_friction_move);
   EXPECT_TRUE(named.limit_friction_move_charges_returns);
   EXPECT_TRUE(named.limit_friction_move_excuses_instrument_returns);
+  EXPECT_FALSE(named.limit_friction_move_energy_flow);
+  EXPECT_FALSE(defaults.limit_friction_move_energy_flow);
+  j["contact"]["limit_friction_move"] = "energy_flow";
+  const Scene flowing = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_TRUE(flowing.world.contact.limit_friction_move);
+  EXPECT_TRUE(instantiate_scene(flowing).world->settings().contact.limit_friction_move_energy_flow);
   for (const nlohmann::json& bad : {nlohmann::json(0.5), nlohmann::json("charge")}) {
     j["contact"]["limit_friction_move"] = bad;
     try {

@@ -91,6 +91,60 @@ TEST(FrictionMoveLimit, RigidMoveOfAWholeBlockOrOfItsContactFaceIsUnchanged) {
   EXPECT_NEAR(friction_move_scale(block, one, 1e-2 * one_energy), 0.1, 1e-12);
 }
 
+// Session 17: model_move_energy is the model's own second-order energy of a move, also in a
+// compressed, rotated tet, where move_energy's linear elasticity about the current shape is not
+// (it scales as 1 / (current size)^2: under the probe it read up to 4,400x the model's energy).
+// Closed form: the rest corner tet (edge h) compressed to c = 0.2 of its height along z and rotated
+// by Q has F = Q diag(1, 1, c); moving the apex by u Q e_z gives F = Q diag(1, 1, c + u / h), whose
+// polar rotation stays Q, so the corotational energy is exactly V0 (mu + lambda / 2) (c + u / h - 1)^2
+// and its second-order term V0 (mu + lambda / 2) (u / h)^2. The model's own energy agrees (a second
+// method); move_energy reads 1 / c = 5x that. On an undeformed block the two estimates agree for
+// any move (current and rest shape coincide), which checks that each tet is counted once.
+TEST(FrictionMoveLimit, ModelMoveEnergyIsTheModelsOwnEnergyInACompressedRotatedTet) {
+  const double h = 0.01, c = 0.2, u = 1e-6;  // m, -, m
+  const std::vector<Vec3> rest = {Vec3(0, 0, 0), Vec3(h, 0, 0), Vec3(0, h, 0), Vec3(0, 0, h)};
+  World world;
+  BodyDef def{.name = "tet", .mesh = TetMesh::build(rest, {TetIndices{0, 1, 2, 3}}, "corner tet"),
+              .material = material(1e5, 0.45, 1000.0)};
+  Body& tet = world.body(world.add_body(def));
+  const double mu = tet.material.lame_mu(), lambda = tet.material.lame_lambda();
+  const double volume = h * h * h / 6.0;
+  const Mat3 rotation = Eigen::AngleAxisd(0.7, Vec3(1, 2, -0.5).normalized()).toRotationMatrix();
+  const Vec3 offset(0.003, -0.002, 0.001);
+  for (size_t v = 0; v < rest.size(); ++v) tet.positions[v] = rotation * Vec3(rest[v].x(), rest[v].y(), c * rest[v].z()) + offset;
+  std::vector<Vec3> move(4, Vec3::Zero());
+  move[3] = u * (rotation * Vec3(0, 0, 1));
+  const double closed_form = volume * (mu + 0.5 * lambda) * (u / h) * (u / h);
+  EXPECT_NEAR(model_move_energy(tet, move), closed_form, 1e-9 * closed_form);
+  // The model's own second difference around the compressed state.
+  std::vector<Vec3> plus = tet.positions, minus = tet.positions;
+  plus[3] += move[3];
+  minus[3] -= move[3];
+  const double second_difference = 0.5 * (tet.model->elastic_energy(plus) + tet.model->elastic_energy(minus) -
+                                          2.0 * tet.model->elastic_energy(tet.positions));
+  EXPECT_NEAR(second_difference, closed_form, 1e-4 * closed_form);
+  EXPECT_NEAR(move_energy(tet, move), closed_form / c, 1e-9 * closed_form / c);
+  // Turned about z until tr F = 2 cos(angle) + c is 1e-7 (the fruit pile's rolled tets had tr F
+  // ~3e-7: a rotation iteration started at the identity takes a step of ~1 / tr F there and
+  // overflowed) and nearly over (3 rad): the same closed form, and no overflow or invalid operation
+  // (the tests trap them).
+  for (const double angle : {std::acos(0.5 * (1e-7 - c)), 3.0}) {
+    const Mat3 turned = Eigen::AngleAxisd(angle, Vec3(0, 0, 1)).toRotationMatrix();
+    for (size_t v = 0; v < rest.size(); ++v) tet.positions[v] = turned * Vec3(rest[v].x(), rest[v].y(), c * rest[v].z());
+    move[3] = u * (turned * Vec3(0, 0, 1));
+    EXPECT_NEAR(model_move_energy(tet, move), closed_form, 1e-9 * closed_form) << angle;
+  }
+
+  const TetMeshPtr box_mesh = make_box_mesh({Vec3(kUpperSize, kUpperSize, kUpperHeight), 4, 4, 2});
+  BodyDef box{.name = "box", .mesh = box_mesh, .material = material(1e4, 0.3, 1000.0)};
+  Body& block = world.body(world.add_body(box));
+  std::vector<Vec3> several(block.positions.size(), Vec3::Zero());
+  for (size_t v = 0; v < several.size(); v += 3) several[v] = 1e-5 * Vec3(std::sin(1.0 * v), std::cos(2.0 * v), 0.3);
+  const double at_rest = move_energy(block, several);
+  EXPECT_GT(at_rest, 0.0);
+  EXPECT_NEAR(model_move_energy(block, several), at_rest, 1e-9 * at_rest);
+}
+
 /// A contact of `vertex` of `body` against the triangle of `partner`'s surface that lies in the
 /// plane z = `face_z` and contains the vertex's xy projection (contact_triangle -1 if none); the
 /// caller sets the body indices.
@@ -311,6 +365,83 @@ TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
   partner.sleep.sleeping = true;
   ASSERT_TRUE(partner.is_immovable(0));
   EXPECT_EQ(stage5_rule(), charged);
+}
+
+// Session 17's energy-flow charge (limit_friction_move_energy_flow) on a return, in closed form.
+// The stuck vertex of the pre-stressed stick above (the step let it relax by X, v_{n+1} = -X / dt)
+// returns by X: its strain in the model's stiffness is k X^2 / 2 (k = vertex_stiffness_along: at
+// rest the model's and the rest-frame stiffness agree), the impulse removes B = m (X / dt)^2 / 2, and
+// implicit Euler's kinetic dissipation at the vertex is D = m |v_{n+1} - v_n|^2 / 2. Stuck in the
+// step before (v_n = 0): D = B, and the vertex keeps min(1, sqrt(2 B / (k X^2 / 2))) = min(1, sqrt(2) /
+// (omega dt)) of its return; with v_n = v_{n+1} (the step did not change its velocity) D = 0 and it
+// keeps 1 / (omega dt), session 15's charge. Stiff (1 MPa, omega dt 4.9): scaled; soft (10 kPa,
+// omega dt 0.49 < sqrt(2)): whole, as the full move. The partner is the kinematic instrument: the
+// rule does not ask who the partner is. The stiff block once more compressed to half its height
+// towards its fixed base (F = diag(1, 1, 1/2), whose rotation is the identity): the model's stiffness
+// for the shear move, so the kept fraction, is the rest block's, where linear elasticity about the
+// current shape would charge more.
+TEST(FrictionMoveLimit, EnergyFlowChargeKeepsSqrtTwoOverOmegaDtOfAQuasiStaticReturn) {
+  for (const auto& [young, height] : {std::pair{1e6, 1.0}, std::pair{1e4, 1.0}, std::pair{1e6, 0.5}}) {
+    Case c{.name = "surface instrument", .method = ContactMethod::contact_surface};
+    c.partner = Partner::instrument;
+    c.young_mean = young;
+    World world(world_settings(c));
+    const Scene scene = build_scene(c, world);
+    Body& lower = world.body(scene.lower);
+    const Body& instrument = world.body(scene.upper);
+    int top = -1;
+    for (int v = 0; v < lower.vertex_count() && top < 0; ++v) {
+      const Vec3& x = lower.positions[static_cast<size_t>(v)];
+      if (std::abs(x.z()) < 1e-12 && std::abs(x.x()) < 0.012 && std::abs(x.y()) < 0.012) top = v;
+    }
+    ASSERT_GE(top, 0);
+    VertexContact contact = contact_in_face(lower, top, instrument, scene.start.z() - 0.5 * kUpperHeight);
+    contact.body = static_cast<int>(scene.lower.index);
+    contact.penetrated_body = static_cast<int>(scene.upper.index);
+    ASSERT_GE(contact.contact_triangle, 0);
+    contact.penetration_direction = Vec3(0, 0, -1);
+    const double dt = c.dt, X = 2e-4;  // s, m
+    for (Vec3& x : lower.positions) x.z() = -kLowerHeight + height * (x.z() + kLowerHeight);  // base at -H
+    const Vec3 rest = lower.positions[static_cast<size_t>(top)];
+    lower.velocities[static_cast<size_t>(top)] = Vec3(-X / dt, 0.0, 0.0);
+    const double m = lower.masses[static_cast<size_t>(top)];
+    const std::vector<double> held = {10.0 * m * X / dt / 0.2};
+    const std::vector<VertexContact> contacts = {contact};
+    const std::vector<Vec3> x0 = lower.positions, v1 = lower.velocities;
+    auto stage5 = [&](const std::vector<Vec3>* step_start, bool limit) {
+      lower.positions = x0, lower.velocities = v1;
+      std::vector<ContactImpulse> impulses;
+      std::vector<RigidModes> rigid;
+      FrictionMoveLedger ledger;
+      ledger.energy_flow = true;
+      std::vector<std::vector<Vec3>> start(world.bodies().size());
+      if (step_start != nullptr) start[scene.lower.index] = *step_start;
+      ledger.step_start_velocities = &start;
+      apply_contact_velocity_update(world.bodies(), contacts, dt, true, held, contacts.size(), impulses, rigid,
+                                    limit ? &ledger : nullptr);
+      return lower.positions;
+    };
+    const std::vector<Vec3> at_rest(lower.positions.size(), Vec3::Zero());
+    const std::vector<Vec3> full = stage5(nullptr, false), stuck = stage5(&at_rest, true), unchanged = stage5(&v1, true);
+    ASSERT_NEAR((full[static_cast<size_t>(top)] - (rest + Vec3(X, 0, 0))).norm(), 0.0, 1e-12);
+    const double omega_dt = std::sqrt(vertex_stiffness_along(lower, top, Vec3(1, 0, 0)) / m) * dt;
+    auto kept = [&](const std::vector<Vec3>& x) { return (x[static_cast<size_t>(top)] - rest).x() / X; };
+    if (young > 1e5) {
+      EXPECT_GT(omega_dt, 2.0);
+      // (k from the rest shape; the model's stiffness at the returned shape differs by 0.1%.)
+      EXPECT_NEAR(kept(stuck), std::sqrt(2.0) / omega_dt, 2e-3 * std::sqrt(2.0) / omega_dt);
+      EXPECT_NEAR(kept(unchanged), 1.0 / omega_dt, 2e-3 / omega_dt);
+    } else {
+      EXPECT_LT(omega_dt, std::sqrt(2.0));
+      EXPECT_EQ(stuck, full);
+    }
+    // Only the returning vertex is touched.
+    for (size_t v = 0; v < full.size(); ++v) {
+      if (static_cast<int>(v) != top) {
+        EXPECT_EQ(stuck[v], full[v]) << v;
+      }
+    }
+  }
 }
 
 }  // namespace

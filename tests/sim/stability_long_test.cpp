@@ -123,24 +123,26 @@ std::vector<Case> full_matrix() {
   // PLIANT_STABILITY_OPT_IN, a comma-separated list of anchored (ContactSettings::
   // anchored_friction_compliance), limit (limit_friction_move), charge_returns (the limit charging
   // returns, session 15), charge_deformable_returns (charging them unless every friction partner of
-  // the body is an instrument, session 16), release (release_distant_held_contacts), frictionless (friction off), on
+  // the body is an instrument, session 16), energy_flow (limit_friction_move_energy_flow, session 17),
+  // release (release_distant_held_contacts), frictionless (friction off), on
   // the contact-surface cases.
   if (const char* env = std::getenv("PLIANT_STABILITY_OPT_IN"); env != nullptr) {
     bool anchored = false, limit = false, charge_returns = false, release = false, frictionless = false,
-         deformable_returns = false;
+         deformable_returns = false, energy_flow = false;
     std::stringstream list(env);
     for (std::string name; std::getline(list, name, ',');) {
       bool* flag = name == "anchored" ? &anchored
                    : name == "limit"  ? &limit
                    : name == "charge_returns" ? &charge_returns
                    : name == "charge_deformable_returns" ? &deformable_returns
+                   : name == "energy_flow" ? &energy_flow
                    : name == "release" ? &release
                    : name == "frictionless" ? &frictionless
                                             : nullptr;
       if (flag == nullptr) {
         std::fprintf(stderr,
-                     "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, charge_returns, charge_deformable_returns, release, "
-                     "frictionless)\n",
+                     "PLIANT_STABILITY_OPT_IN: unknown '%s' (anchored, limit, charge_returns, charge_deformable_returns, "
+                     "energy_flow, release, frictionless)\n",
                      name.c_str());
         std::exit(2);
       }
@@ -148,11 +150,12 @@ std::vector<Case> full_matrix() {
     }
     for (Case& c : cases) {
       if (c.method != ContactMethod::contact_surface) continue;
-      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, charge_returns, deformable_returns, release,
-                         frictionless](ContactSettings& s) {
+      c.contact_tweak = [tweak = c.contact_tweak, anchored, limit, charge_returns, deformable_returns, energy_flow,
+                         release, frictionless](ContactSettings& s) {
         if (tweak) tweak(s);
         s.anchored_friction_compliance = s.anchored_friction_compliance || anchored;
-        s.limit_friction_move = s.limit_friction_move || limit || charge_returns || deformable_returns;
+        s.limit_friction_move = s.limit_friction_move || limit || charge_returns || deformable_returns || energy_flow;
+        s.limit_friction_move_energy_flow = s.limit_friction_move_energy_flow || energy_flow;
         s.limit_friction_move_charges_returns =
             s.limit_friction_move_charges_returns || charge_returns || deformable_returns;
         s.limit_friction_move_excuses_instrument_returns =
