@@ -131,27 +131,48 @@ inline constexpr int kRotationBatchLanes = 2;
 // with FMA contraction, -march=native, both may round differently). A lane that stopped keeps its
 // q, G and count; the batch runs until every lane stopped.
 namespace rotation_batch_detail {
-/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1). Spelled out
-/// per L: GCC does not apply a vector_size that depends on a template parameter.
+/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1), with the two
+/// lane operations GCC's vector types do not have: any lane set, and a square root. Spelled out per
+/// L: GCC does not apply a vector_size that depends on a template parameter. LaneTypes<8> lives in
+/// rotation_batch_avx512.cpp, its operations AVX-512 instructions (session 17).
 template <int L>
 struct LaneTypes;
-template <>
-struct LaneTypes<2> {
-  typedef double Lanes __attribute__((vector_size(16)));
-  typedef long Mask __attribute__((vector_size(16)));
+/// The lane operations lane by lane (the 2- and 4-lane batches').
+template <int L, class LanesType, class MaskType>
+struct LaneByLaneOperations {
+  typedef LanesType Lanes;
+  typedef MaskType Mask;
+  /// True when some lane of m is set.
+  static bool any(const Mask& m) {
+    for (int l = 0; l < L; ++l) {
+      if (m[l] != 0) return true;
+    }
+    return false;
+  }
+  /// a < b and a <= b per lane (all bits set where true).
+  static Mask less(const Lanes& a, const Lanes& b) { return a < b; }
+  static Mask less_equal(const Lanes& a, const Lanes& b) { return a <= b; }
+  /// m ? a : b per lane.
+  static Lanes select(const Mask& m, const Lanes& a, const Lanes& b) { return m ? a : b; }
+  /// s = sqrt(n) in the lanes where n > 0, 1 elsewhere (correctly rounded: the scalar's bits).
+  static void square_root_where_positive(const Lanes& n, Lanes& s) {
+    double values[L];
+    for (int l = 0; l < L; ++l) values[l] = n[l] > 0.0 ? std::sqrt(n[l]) : 1.0;
+    std::memcpy(&s, values, sizeof(s));
+  }
 };
+typedef double Lanes2 __attribute__((vector_size(16)));
+typedef long Mask2 __attribute__((vector_size(16)));
+typedef double Lanes4 __attribute__((vector_size(32)));
+typedef long Mask4 __attribute__((vector_size(32)));
 template <>
-struct LaneTypes<4> {
-  typedef double Lanes __attribute__((vector_size(32)));
-  typedef long Mask __attribute__((vector_size(32)));
-};
+struct LaneTypes<2> : LaneByLaneOperations<2, Lanes2, Mask2> {};
+template <>
+struct LaneTypes<4> : LaneByLaneOperations<4, Lanes4, Mask4> {};
 static_assert(sizeof(long) == sizeof(double), "masks as wide as the lanes");
 template <int L, class Mask>
 inline bool any(const Mask& m) {
-  for (int l = 0; l < L; ++l) {
-    if (m[l] != 0) return true;
-  }
-  return false;
+  return LaneTypes<L>::any(m);
 }
 
 /// v's lane l = value_of_lane(l). Through memcpy (element inserts into vector arrays trip GCC's
@@ -195,9 +216,17 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
       for (int j = 0; j < 3; ++j) G[i][j] = (R[0][i] * Fl[0][j] + R[1][i] * Fl[1][j]) + R[2][i] * Fl[2][j];
     }
   }
-  for (int l = 0; l < L; ++l) {
-    // A warm start facing away (the SVD start) is rare: that lane runs the scalar start again.
-    if (G[0][0][l] + (G[1][1][l] + G[2][2][l]) <= 0.0 && F_of_lane(l).allFinite()) {
+  // Comparisons and selects through LaneTypes<L> (GCC's vector operators for 2 and 4 lanes; for 8,
+  // functions compiled for AVX-512 and inlined into the 8-lane kernel, see LaneTypes<8>).
+  using Ops = LaneTypes<L>;
+  const Lanes zero = {}, one = zero + 1.0;
+  const Mask all_lanes = Ops::less(zero, one), no_lanes = {};
+  // A warm start facing away (the SVD start) is rare: that lane runs the scalar start again (the
+  // lanes' trace is the scalar's a + (b + c), so the same lanes are found).
+  const Mask facing_away = Ops::less_equal(G[0][0] + (G[1][1] + G[2][2]), zero);
+  if (any<L>(facing_away)) {
+    for (int l = 0; l < L; ++l) {
+      if (facing_away[l] == 0 || !F_of_lane(l).allFinite()) continue;
       const Mat3 start = rotation_iteration_start(F_of_lane(l), q[l]);
       for (int i = 0; i < 3; ++i) {
         for (int j = 0; j < 3; ++j) G[i][j][l] = start(i, j);
@@ -209,56 +238,58 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
     }
   }
   const double tolerance_sq = tolerance * tolerance;
-  const Lanes zero = {};
-  const Mask all_lanes = zero < zero + 1.0, no_lanes = {};
+  const Lanes tolerance_sq_lanes = zero + tolerance_sq;
   Mask active = all_lanes;
   count = zero;
-  for (int it = 0; it < max_iterations && any<L>(active); ++it) {
+  for (int it = 0; it < max_iterations; ++it) {  // (every lane active at it = 0; the break below after)
     const Lanes g0 = G[2][1] - G[1][2], g1 = G[0][2] - G[2][0], g2 = G[1][0] - G[0][1];
     const Lanes tr = G[0][0] + (G[1][1] + G[2][2]);  // Eigen's unrolled trace: a + (b + c)
-    const Lanes denom = (tr < 0.0 ? -tr : tr) + 1e-9;
+    const Lanes denom = Ops::select(Ops::less(tr, zero), -tr, tr) + 1e-9;
     const Lanes h00 = tr - G[0][0], h11 = tr - G[1][1], h22 = tr - G[2][2];
     const Lanes h01 = -0.5 * (G[0][1] + G[1][0]), h02 = -0.5 * (G[0][2] + G[2][0]), h12 = -0.5 * (G[1][2] + G[2][1]);
     const Lanes c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
     const Lanes m2 = h00 * h11 - h01 * h01, det = (h00 * c00 + h01 * c01) + h02 * c02;
     const Lanes floor = 1e-3 * denom;
-    const Mask positive_definite = (h00 > floor) & (m2 > floor * floor) & (det > floor * floor * floor);
+    const Mask positive_definite = Ops::less(floor, h00) & Ops::less(floor * floor, m2) &
+                                   Ops::less(floor * floor * floor, det);
     const Lanes c11 = h00 * h22 - h02 * h02, c12 = h02 * h01 - h00 * h12;
     // Lanes the scalar would not compute something for get harmless inputs (0, or 1 for a
     // divisor) instead: with FP traps on, the batch must not overflow where the scalar does not.
-    const Lanes inv_det = 1.0 / (positive_definite ? det : zero + 1.0);
-    const Lanes p0 = positive_definite ? g0 : zero, p1 = positive_definite ? g1 : zero,
-                p2 = positive_definite ? g2 : zero;
+    const Lanes inv_det = 1.0 / Ops::select(positive_definite, det, one);
+    const Lanes p0 = Ops::select(positive_definite, g0, zero), p1 = Ops::select(positive_definite, g1, zero),
+                p2 = Ops::select(positive_definite, g2, zero);
     const Lanes n0 = inv_det * ((c00 * p0 + c01 * p1) + c02 * p2);
     const Lanes n1 = inv_det * ((c01 * p0 + c11 * p1) + c12 * p2);
     const Lanes n2 = inv_det * ((c02 * p0 + c12 * p1) + m2 * p2);
-    const Mask newton_step = positive_definite & ((n0 * n0 + n1 * n1) + n2 * n2 < 1.0);
-    const Lanes t0 = newton_step ? n0 : g0 / denom, t1 = newton_step ? n1 : g1 / denom,
-                t2 = newton_step ? n2 : g2 / denom;
+    const Mask newton_step = positive_definite & Ops::less((n0 * n0 + n1 * n1) + n2 * n2, one);
+    const Lanes t0 = Ops::select(newton_step, n0, g0 / denom), t1 = Ops::select(newton_step, n1, g1 / denom),
+                t2 = Ops::select(newton_step, n2, g2 / denom);
     const Lanes angle_sq = (t0 * t0 + t1 * t1) + t2 * t2;
-    const Mask moves = active & (angle_sq >= tolerance_sq);  // the scalar's converged break otherwise
+    // the scalar's converged break where angle_sq < tolerance_sq or NaN
+    const Mask moves = active & Ops::less_equal(tolerance_sq_lanes, angle_sq);
     // q <- q * (u0, u1, u2, w), grouped as Eigen's SSE2 quaternion product (lanes that stay: by
     // (0, 0, 0, 2), discarded).
-    const Lanes u0 = moves ? t0 : zero, u1 = moves ? t1 : zero, u2 = moves ? t2 : zero;
-    const Lanes w = 2.0 + 0.5 * (moves ? angle_sq : zero);
+    const Lanes u0 = Ops::select(moves, t0, zero), u1 = Ops::select(moves, t1, zero), u2 = Ops::select(moves, t2, zero);
+    const Lanes w = 2.0 + 0.5 * Ops::select(moves, angle_sq, zero);
     const Lanes nx = (qw * u0 + qy * u2) - (qz * u1 - qx * w);
     const Lanes ny = (qw * u1 + qy * w) + (qz * u0 - qx * u2);
     const Lanes nz = (qw * u2 - qy * u0) + (qz * w + qx * u1);
     const Lanes nw = (qw * w - qy * u1) - (qz * u2 + qx * u0);
-    qx = moves ? nx : qx;
-    qy = moves ? ny : qy;
-    qz = moves ? nz : qz;
-    qw = moves ? nw : qw;
-    count = moves ? count + 1.0 : count;
+    qx = Ops::select(moves, nx, qx);
+    qy = Ops::select(moves, ny, qy);
+    qz = Ops::select(moves, nz, qz);
+    qw = Ops::select(moves, nw, qw);
+    count = Ops::select(moves, count + 1.0, count);
     const Mask at_cap = it + 1 == max_iterations ? all_lanes : no_lanes;
-    const Lanes newton_angle_sq = newton_step ? angle_sq : zero;  // < 1 where the scalar squares it
-    const Mask last = (newton_step & (newton_angle_sq * newton_angle_sq < tolerance_sq)) | at_cap;
+    const Lanes newton_angle_sq = Ops::select(newton_step, angle_sq, zero);  // < 1 where the scalar squares it
+    const Mask last = (newton_step & Ops::less(newton_angle_sq * newton_angle_sq, tolerance_sq_lanes)) | at_cap;
     active = moves & ~last;
     if (!any<L>(active)) break;
     // G <- n^2 Q^T G (extract_rotation's update) for the lanes that go on; the others by Q = 4 I
     // (u = 0, w = 2), discarded.
-    const Lanes v0 = active ? u0 : zero, v1 = active ? u1 : zero, v2 = active ? u2 : zero;
-    const Lanes wq = active ? w : zero + 2.0, aq = active ? angle_sq : zero;
+    const Lanes v0 = Ops::select(active, u0, zero), v1 = Ops::select(active, u1, zero),
+                v2 = Ops::select(active, u2, zero);
+    const Lanes wq = Ops::select(active, w, zero + 2.0), aq = Ops::select(active, angle_sq, zero);
     const Lanes d = wq * wq - aq;
     const Lanes Q[3][3] = {{d + 2.0 * v0 * v0, 2.0 * (v0 * v1 - wq * v2), 2.0 * (v0 * v2 + wq * v1)},
                            {2.0 * (v1 * v0 + wq * v2), d + 2.0 * v1 * v1, 2.0 * (v1 * v2 - wq * v0)},
@@ -268,7 +299,7 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
       for (int j = 0; j < 3; ++j) next[i][j] = (Q[0][i] * G[0][j] + Q[1][i] * G[1][j]) + Q[2][i] * G[2][j];
     }
     for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) G[i][j] = active ? next[i][j] : G[i][j];
+      for (int j = 0; j < 3; ++j) G[i][j] = Ops::select(active, next[i][j], G[i][j]);
     }
   }
 }
@@ -279,15 +310,15 @@ template <int L>
 inline void normalise_quaternion_lanes(typename LaneTypes<L>::Lanes& qx, typename LaneTypes<L>::Lanes& qy,
                                        typename LaneTypes<L>::Lanes& qz, typename LaneTypes<L>::Lanes& qw) {
   using Lanes = typename LaneTypes<L>::Lanes;
-  using Mask = typename LaneTypes<L>::Mask;
-  const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw);
-  const Mask positive = n > 0.0;
-  Lanes s;  // sqrt(n) where n > 0 (GCC's vector types have no sqrt; 1 elsewhere, unused)
-  gather<L>(s, [&](int l) { return n[l] > 0.0 ? std::sqrt(n[l]) : 1.0; });
-  qx = positive ? qx / s : qx;
-  qy = positive ? qy / s : qy;
-  qz = positive ? qz / s : qz;
-  qw = positive ? qw / s : qw;
+  using Ops = LaneTypes<L>;
+  const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw), zero = {};
+  const typename Ops::Mask positive = Ops::less(zero, n);
+  Lanes s;  // sqrt(n) where n > 0 (1 elsewhere, unused)
+  Ops::square_root_where_positive(n, s);
+  qx = Ops::select(positive, qx / s, qx);
+  qy = Ops::select(positive, qy / s, qy);
+  qz = Ops::select(positive, qz / s, qz);
+  qw = Ops::select(positive, qw / s, qw);
 }
 
 /// Rl[i][j] = R(i, j) of q.toRotationMatrix() per lane (Eigen's expressions) for a unit q.
@@ -322,7 +353,7 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
   Lanes qx, qy, qz, qw, count;
   rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
                                                    tolerance, qx, qy, qz, qw, count);
-  if (L == 4 || rotation_matrices != nullptr) {
+  if (L >= 4 || rotation_matrices != nullptr) {
     // Session 13: the normalisation in the lanes (the per-lane normalisation was ~23 instructions
     // per tet), and for the local queries' stress the rotation matrix too (its own
     // toRotationMatrix per tet was ~30).
@@ -354,6 +385,31 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
         double last_entries[L];  // R(2, 2) of each lane, one vector store and four scalar copies
         std::memcpy(last_entries, &Rl[2][2], sizeof(Lanes));
         for (int l = 0; l < L; ++l) rotation_matrices[l](2, 2) = last_entries[l];
+      }
+    } else if constexpr (L == 8) {
+      // Session 17: q out of the lanes by two rounds of two-register permutes (vpermt2pd): first
+      // (x, y) and (z, w) pairs of lanes 0-3 and 4-7, then lanes 2k and 2k + 1 whole, one 64-byte
+      // store for two adjacent quaternions. R (the local queries', not asked for here) lane by lane.
+      using Index = typename rotation_batch_detail::LaneTypes<L>::Mask;
+      const Index pairs_low = {0, 8, 1, 9, 2, 10, 3, 11}, pairs_high = {4, 12, 5, 13, 6, 14, 7, 15};
+      const Index even = {0, 1, 8, 9, 2, 3, 10, 11}, odd = {4, 5, 12, 13, 6, 7, 14, 15};
+      const Lanes xy_low = __builtin_shuffle(qx, qy, pairs_low), xy_high = __builtin_shuffle(qx, qy, pairs_high);
+      const Lanes zw_low = __builtin_shuffle(qz, qw, pairs_low), zw_high = __builtin_shuffle(qz, qw, pairs_high);
+      const Lanes q01 = __builtin_shuffle(xy_low, zw_low, even), q23 = __builtin_shuffle(xy_low, zw_low, odd);
+      const Lanes q45 = __builtin_shuffle(xy_high, zw_high, even), q67 = __builtin_shuffle(xy_high, zw_high, odd);
+      static_assert(sizeof(Quat) == 4 * sizeof(double), "quaternions packed (x, y, z, w)");
+      std::memcpy(q[0].coeffs().data(), &q01, sizeof(Lanes));
+      std::memcpy(q[2].coeffs().data(), &q23, sizeof(Lanes));
+      std::memcpy(q[4].coeffs().data(), &q45, sizeof(Lanes));
+      std::memcpy(q[6].coeffs().data(), &q67, sizeof(Lanes));
+      if (rotation_matrices != nullptr) {
+        Lanes Rl[3][3];
+        rotation_entries(Rl);
+        for (int l = 0; l < L; ++l) {
+          for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) rotation_matrices[l](i, j) = Rl[i][j][l];
+          }
+        }
       }
     } else {
       Lanes Rl[3][3];

@@ -17,6 +17,7 @@
 
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
 #include "sim/model/rotation_extraction.h"
 
 namespace pliant {
@@ -140,6 +141,58 @@ TEST(RotationExtractionBatch, AvxLanesEqualTheScalarExtractionBitForBit) {
       [](const Mat3* F, Quat* q, int cap, double tolerance, int* iterations) {
         extract_rotations_batch_avx2(F, q, cap, tolerance, iterations);
       });
+}
+
+// Session 17: the same template in eight AVX-512 lanes (rotation_batch_avx512.h, compiled without
+// contraction): every lane the scalar's bits and count, as the four AVX2 lanes'.
+TEST(RotationExtractionBatch, Avx512LanesEqualTheScalarExtractionBitForBit) {
+  if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
+  expect_every_lane_equals_the_scalar<kRotationBatchLanesAvx512>(
+      [](const Mat3* F, Quat* q, int cap, double tolerance, int* iterations) {
+        extract_rotations_batch_avx512(F, q, cap, tolerance, iterations);
+      });
+}
+
+// Eight lanes run until the slowest stops: one lane that needs many iterations (a far warm start on a
+// large stretch, or an inverted element) among seven that stop after one or two must not move the
+// seven once they stopped, whichever lane is the slow one; and a batch stopped at the iteration cap
+// leaves every lane at the scalar's result for that cap.
+TEST(RotationExtractionBatch, Avx512LanesThatStoppedStayWhileOneLaneIterates) {
+  if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
+  constexpr int L = kRotationBatchLanesAvx512;
+  std::mt19937_64 rng(20261128);
+  int slow_iterations = 0, fast_iterations = 0, fast_lanes = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    Mat3 F[L];
+    Quat batch[L], scalar[L];
+    int iterations[L];
+    const int slow = trial % L;
+    for (int l = 0; l < L; ++l) {
+      make_case(rng, l == slow ? (trial % 2 == 0 ? 1 : 2) : (trial % 3 == 0 ? 6 : 0), F[l], batch[l]);
+      scalar[l] = batch[l];
+    }
+    const int cap = trial % 5 == 0 ? 1 + trial / 5 % 4 : kElementRotationIterations;
+    extract_rotations_batch_avx512(F, batch, cap, kElementRotationTolerance, iterations);
+    for (int l = 0; l < L; ++l) {
+      const int expected = extract_rotation(F[l], scalar[l], cap, kElementRotationTolerance);
+#ifdef __FMA__
+      ASSERT_LT((batch[l].coeffs() - scalar[l].coeffs()).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+      continue;
+#endif
+      ASSERT_TRUE(same_bits(batch[l], scalar[l])) << "trial " << trial << " lane " << l << " slow lane " << slow;
+      ASSERT_EQ(iterations[l], expected) << "trial " << trial << " lane " << l;
+      if (cap != kElementRotationIterations) continue;
+      if (l == slow) {
+        slow_iterations += iterations[l];
+      } else {
+        fast_iterations += iterations[l];
+        ++fast_lanes;
+      }
+    }
+  }
+  // The mix is what the test is about: the slow lanes iterate several times longer than the others.
+  EXPECT_GT(slow_iterations * 7, 2 * fast_iterations);
+  EXPECT_GT(fast_lanes, 0);
 }
 
 // Session 13: the local queries take R from the extraction's lanes (normalised and built there)
