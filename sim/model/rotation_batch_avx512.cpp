@@ -32,6 +32,37 @@ struct LaneTypes<8> {
   PLIANT_AVX512_ONLY static bool any(const Mask& m) {
     return _mm512_test_epi64_mask(reinterpret_cast<__m512i>(m), reinterpret_cast<__m512i>(m)) != 0;
   }
+  /// Lane l of qx, qy, qz, qw = the coefficients (x, y, z, w) of q[l]: four 64-byte loads (two
+  /// quaternions each) and two rounds of two-register permutes (the store's in reverse).
+  PLIANT_AVX512_ONLY static void load_quaternions(const Quat* q, Lanes& qx, Lanes& qy, Lanes& qz, Lanes& qw) {
+    const double* p = q[0].coeffs().data();  // q[l] at p + 4 l (packed, asserted below)
+    const __m512d q01 = _mm512_loadu_pd(p), q23 = _mm512_loadu_pd(p + 8);
+    const __m512d q45 = _mm512_loadu_pd(p + 16), q67 = _mm512_loadu_pd(p + 24);
+    // (x0, y0, x1, y1, x2, y2, x3, y3) and (z0, w0, ...) for lanes 0-3, the same for 4-7
+    const __m512i pairs_first = _mm512_setr_epi64(0, 1, 4, 5, 8, 9, 12, 13);
+    const __m512i pairs_second = _mm512_setr_epi64(2, 3, 6, 7, 10, 11, 14, 15);
+    const __m512d xy_low = _mm512_permutex2var_pd(q01, pairs_first, q23);
+    const __m512d zw_low = _mm512_permutex2var_pd(q01, pairs_second, q23);
+    const __m512d xy_high = _mm512_permutex2var_pd(q45, pairs_first, q67);
+    const __m512d zw_high = _mm512_permutex2var_pd(q45, pairs_second, q67);
+    const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+    const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+    qx = reinterpret_cast<Lanes>(_mm512_permutex2var_pd(xy_low, even, xy_high));
+    qy = reinterpret_cast<Lanes>(_mm512_permutex2var_pd(xy_low, odd, xy_high));
+    qz = reinterpret_cast<Lanes>(_mm512_permutex2var_pd(zw_low, even, zw_high));
+    qw = reinterpret_cast<Lanes>(_mm512_permutex2var_pd(zw_low, odd, zw_high));
+  }
+  /// Lane l of Fl[i][j] = F[l](i, j): one gather per entry (the eight matrices packed, 9 doubles apart).
+  PLIANT_AVX512_ONLY static void load_matrices(const Mat3* F, Lanes (&Fl)[3][3]) {
+    const __m512i tets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        // (the masked form: GCC 12's unmasked gather reads an uninitialised source, -Wuninitialized)
+        Fl[i][j] = reinterpret_cast<Lanes>(
+            _mm512_mask_i64gather_pd(_mm512_setzero_pd(), 0xff, tets, F[0].data() + i + 3 * j, 8));
+      }
+    }
+  }
   /// s = sqrt(n) where n > 0, 1 elsewhere: one masked vsqrtpd (correctly rounded, as std::sqrt).
   PLIANT_AVX512_ONLY static void square_root_where_positive(const Lanes& n, Lanes& s) {
     const __m512d v = reinterpret_cast<__m512d>(n);
@@ -39,6 +70,7 @@ struct LaneTypes<8> {
     s = reinterpret_cast<Lanes>(_mm512_mask_sqrt_pd(_mm512_set1_pd(1.0), positive, v));
   }
 };
+static_assert(sizeof(Quat) == 4 * sizeof(double) && sizeof(Mat3) == 9 * sizeof(double), "packed quaternions, matrices");
 }  // namespace rotation_batch_detail
 
 bool rotation_batch_avx512_available() {

@@ -154,6 +154,25 @@ struct LaneByLaneOperations {
   static Mask less_equal(const Lanes& a, const Lanes& b) { return a <= b; }
   /// m ? a : b per lane.
   static Lanes select(const Mask& m, const Lanes& a, const Lanes& b) { return m ? a : b; }
+  /// Lane l of qx, qy, qz, qw = the coefficients of q[l].
+  static void load_quaternions(const Quat* q, Lanes& qx, Lanes& qy, Lanes& qz, Lanes& qw) {
+    double x[L], y[L], z[L], w[L];
+    for (int l = 0; l < L; ++l) x[l] = q[l].x(), y[l] = q[l].y(), z[l] = q[l].z(), w[l] = q[l].w();
+    std::memcpy(&qx, x, sizeof(qx));
+    std::memcpy(&qy, y, sizeof(qy));
+    std::memcpy(&qz, z, sizeof(qz));
+    std::memcpy(&qw, w, sizeof(qw));
+  }
+  /// Lane l of Fl[i][j] = F[l](i, j).
+  static void load_matrices(const Mat3* F, Lanes (&Fl)[3][3]) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        double values[L];
+        for (int l = 0; l < L; ++l) values[l] = F[l](i, j);
+        std::memcpy(&Fl[i][j], values, sizeof(Lanes));
+      }
+    }
+  }
   /// s = sqrt(n) in the lanes where n > 0, 1 elsewhere (correctly rounded: the scalar's bits).
   static void square_root_where_positive(const Lanes& n, Lanes& s) {
     double values[L];
@@ -175,16 +194,6 @@ inline bool any(const Mask& m) {
   return LaneTypes<L>::any(m);
 }
 
-/// v's lane l = value_of_lane(l). Through memcpy (element inserts into vector arrays trip GCC's
-/// maybe-uninitialized); written through a reference, not returned (a 32-byte vector returned by a
-/// helper compiled without AVX would change the ABI: -Wpsabi).
-template <int L, class ValueOfLane>
-inline void gather(typename LaneTypes<L>::Lanes& v, ValueOfLane value_of_lane) {
-  double values[L];
-  for (int l = 0; l < L; ++l) values[l] = value_of_lane(l);
-  std::memcpy(&v, values, sizeof(v));
-}
-
 /// extract_rotation's start and Newton iteration for L tets in lanes, from F's entries Fl[i][j]
 /// (lane l = tet l; F_of_lane(l) the same F as a matrix, read by a lane that takes the SVD start)
 /// and the warm starts q[l] (rewritten only by the SVD start): leaves each lane's unnormalised
@@ -197,12 +206,8 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
                                    typename LaneTypes<L>::Lanes& qw, typename LaneTypes<L>::Lanes& count) {
   using Lanes = typename LaneTypes<L>::Lanes;
   using Mask = typename LaneTypes<L>::Mask;
-  const auto gather = [](Lanes& v, auto value_of_lane) { rotation_batch_detail::gather<L>(v, value_of_lane); };
   Lanes G[3][3];  // G(i, j) per lane
-  gather(qx, [&](int l) { return q[l].x(); });
-  gather(qy, [&](int l) { return q[l].y(); });
-  gather(qz, [&](int l) { return q[l].z(); });
-  gather(qw, [&](int l) { return q[l].w(); });
+  LaneTypes<L>::load_quaternions(q, qx, qy, qz, qw);
   // rotation_iteration_start in the lanes: R = q.toRotationMatrix() (Eigen's expressions), G = R^T F.
   {
     const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
@@ -345,11 +350,8 @@ template <int L>
 inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
                                     int* iterations = nullptr, Mat3* rotation_matrices = nullptr) {
   using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
-  const auto gather = [](Lanes& v, auto value_of_lane) { rotation_batch_detail::gather<L>(v, value_of_lane); };
   Lanes Fl[3][3];  // F(i, j) per lane
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) gather(Fl[i][j], [&](int l) { return F[l](i, j); });
-  }
+  rotation_batch_detail::LaneTypes<L>::load_matrices(F, Fl);
   Lanes qx, qy, qz, qw, count;
   rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
                                                    tolerance, qx, qy, qz, qw, count);
