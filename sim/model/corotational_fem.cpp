@@ -476,6 +476,14 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
     for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
   }
   if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
+  if (lanes == kRotationBatchLanesAvx512 && avx512_lanes() && lanes_kernels) {
+    // Session 17: rotations, energies and element forces in one kernel's lanes (element_forces_avx2's
+    // expressions, the same bits).
+    extract_rotations_and_element_forces_avx512(F, &rotations[t0], &rest_shape_inverse_[t0], &volume_[t0], mu_,
+                                                 lambda_, kElementRotationIterations, kElementRotationTolerance,
+                                                 &tet_energy[t0], H);
+    return;
+  }
   size_t done = 0;  // tets whose rotation is extracted
   if (lanes == kRotationBatchLanesAvx512 && avx512_lanes()) {
     extract_rotations_batch_avx512(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);

@@ -1,5 +1,7 @@
 #include "sim/model/rotation_batch_avx512.h"
 
+#include <cstring>
+
 #include "sim/model/rotation_extraction.h"
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
@@ -52,6 +54,23 @@ struct LaneTypes<8> {
     qz = reinterpret_cast<Lanes>(_mm512_permutex2var_pd(zw_low, even, zw_high));
     qw = reinterpret_cast<Lanes>(_mm512_permutex2var_pd(zw_low, odd, zw_high));
   }
+  /// q[l] = (qx, qy, qz, qw) lane l: two rounds of two-register permutes, (x, y) and (z, w) pairs of
+  /// lanes 0-3 and 4-7, then lanes 2k and 2k + 1 whole, one 64-byte store per two quaternions.
+  PLIANT_AVX512_ONLY static void store_quaternions(const Lanes& qx, const Lanes& qy, const Lanes& qz, const Lanes& qw,
+                                                   Quat* q) {
+    const __m512i pairs_low = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+    const __m512i pairs_high = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+    const __m512d x = reinterpret_cast<__m512d>(qx), y = reinterpret_cast<__m512d>(qy);
+    const __m512d z = reinterpret_cast<__m512d>(qz), w = reinterpret_cast<__m512d>(qw);
+    const __m512d xy_low = _mm512_permutex2var_pd(x, pairs_low, y), xy_high = _mm512_permutex2var_pd(x, pairs_high, y);
+    const __m512d zw_low = _mm512_permutex2var_pd(z, pairs_low, w), zw_high = _mm512_permutex2var_pd(z, pairs_high, w);
+    const __m512i even = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11), odd = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);
+    double* p = q[0].coeffs().data();  // q[l] at p + 4 l
+    _mm512_storeu_pd(p, _mm512_permutex2var_pd(xy_low, even, zw_low));
+    _mm512_storeu_pd(p + 8, _mm512_permutex2var_pd(xy_low, odd, zw_low));
+    _mm512_storeu_pd(p + 16, _mm512_permutex2var_pd(xy_high, even, zw_high));
+    _mm512_storeu_pd(p + 24, _mm512_permutex2var_pd(xy_high, odd, zw_high));
+  }
   /// Lane l of Fl[i][j] = F[l](i, j): one gather per entry (the eight matrices packed, 9 doubles apart).
   PLIANT_AVX512_ONLY static void load_matrices(const Mat3* F, Lanes (&Fl)[3][3]) {
     const __m512i tets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
@@ -87,6 +106,73 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void extract_rotations_batch_avx512(
   extract_rotations_lanes<kRotationBatchLanesAvx512>(F, q, max_iterations, tolerance, iterations);
 }
 
+namespace {
+
+using Lanes8 = rotation_batch_detail::LaneTypes<8>::Lanes;
+
+/// The sum of a column-major 3x3 matrix's nine entries per lane in Eigen's order for M.sum() in the
+/// portable build (matrix_entry_lanes.h's entry_sum9): ((e0 + e2) + (e4 + e6)) + ((e1 + e3) + (e5 + e7)),
+/// then + e8.
+PLIANT_AVX512_ONLY inline void entry_sum9(const Lanes8 (&e)[9], Lanes8& sum) {
+  sum = (((e[0] + e[2]) + (e[4] + e[6])) + ((e[1] + e[3]) + (e[5] + e[7]))) + e[8];
+}
+
+/// value in every lane (not 0 + value, which turns -0 into +0).
+PLIANT_AVX512_ONLY inline Lanes8 broadcast(double value) { return reinterpret_cast<Lanes8>(_mm512_set1_pd(value)); }
+
+}  // namespace
+
+PLIANT_AVX512_ONLY __attribute__((flatten)) void extract_rotations_and_element_forces_avx512(
+    const Mat3* F, Quat* q, const Mat3* rest_shape_inverse, const double* volume, double mu, double lambda,
+    int max_iterations, double tolerance, double* energy, Mat3* H) {
+  using Ops = rotation_batch_detail::LaneTypes<8>;
+  using Lanes = Lanes8;
+  Lanes Fl[3][3];
+  Ops::load_matrices(F, Fl);
+  Lanes qx, qy, qz, qw, count;
+  rotation_batch_detail::iterate_rotation_lanes<8>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
+                                                   tolerance, qx, qy, qz, qw, count);
+  rotation_batch_detail::normalise_quaternion_lanes<8>(qx, qy, qz, qw);
+  Ops::store_quaternions(qx, qy, qz, qw, q);
+  // element_forces_avx2's expressions per lane (tet_gradient_kernels.cpp, element_forces_lanes), the
+  // column-major entry k = i + 3 j of R, F, F - R, A and H in one vector each.
+  Lanes Rl[3][3];
+  rotation_batch_detail::rotation_matrix_lanes<8>(qx, qy, qz, qw, Rl);
+  Lanes r[9], f[9], e[9], fmr[9];
+  for (int k = 0; k < 9; ++k) r[k] = Rl[k % 3][k / 3], f[k] = Fl[k % 3][k / 3];
+  // trace = R.cwiseProduct(F).sum() - 3
+  for (int k = 0; k < 9; ++k) e[k] = r[k] * f[k];
+  Lanes trace;
+  entry_sum9(e, trace);
+  trace = trace - 3.0;
+  // F - R, its squared norm, the energy V (mu |F - R|^2 + ((0.5 lambda) trace) trace)
+  for (int k = 0; k < 9; ++k) {
+    fmr[k] = f[k] - r[k];
+    e[k] = fmr[k] * fmr[k];
+  }
+  Lanes v, squared_norm;
+  std::memcpy(&v, volume, sizeof(Lanes));
+  entry_sum9(e, squared_norm);
+  const Lanes half_lambda_trace = broadcast(0.5 * lambda) * trace;
+  const Lanes tet_energy = v * (broadcast(mu) * squared_norm + half_lambda_trace * trace);
+  std::memcpy(energy, &tet_energy, sizeof(Lanes));
+  // A = (-V) ((2 mu) (F - R) + (lambda trace) R), H = A B^T with B = Dm^-1: H(i, j) = sum_k A(i, k)
+  // B(j, k), rows 0 and 1 (k0 + k1) + k2, row 2 k0 + (k1 + k2) (Eigen's order, product_transposed_lanes)
+  const Lanes two_mu = broadcast(2.0 * mu), lambda_trace = broadcast(lambda) * trace;
+  const Lanes minus_volume = -v;
+  Lanes a[9], b[3][3], h[9];
+  for (int k = 0; k < 9; ++k) a[k] = minus_volume * (two_mu * fmr[k] + lambda_trace * r[k]);
+  Ops::load_matrices(rest_shape_inverse, b);
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) {
+      const Lanes p0 = a[i] * b[j][0], p1 = a[i + 3] * b[j][1], p2 = a[i + 6] * b[j][2];
+      h[i + 3 * j] = i < 2 ? (p0 + p1) + p2 : p0 + (p1 + p2);
+    }
+  }
+  const __m512i tets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
+  for (int k = 0; k < 9; ++k) _mm512_i64scatter_pd(H[0].data() + k, tets, reinterpret_cast<__m512d>(h[k]), 8);
+}
+
 #else
 
 bool rotation_batch_avx512_available() { return false; }
@@ -97,6 +183,9 @@ void extract_rotations_batch_avx512(const Mat3* F, Quat* q, int max_iterations, 
     if (iterations != nullptr) iterations[l] = it;
   }
 }
+
+void extract_rotations_and_element_forces_avx512(const Mat3*, Quat*, const Mat3*, const double*, double, double, int,
+                                                 double, double*, Mat3*) {}
 
 #endif
 

@@ -389,21 +389,9 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
         for (int l = 0; l < L; ++l) rotation_matrices[l](2, 2) = last_entries[l];
       }
     } else if constexpr (L == 8) {
-      // Session 17: q out of the lanes by two rounds of two-register permutes (vpermt2pd): first
-      // (x, y) and (z, w) pairs of lanes 0-3 and 4-7, then lanes 2k and 2k + 1 whole, one 64-byte
-      // store for two adjacent quaternions. R (the local queries', not asked for here) lane by lane.
-      using Index = typename rotation_batch_detail::LaneTypes<L>::Mask;
-      const Index pairs_low = {0, 8, 1, 9, 2, 10, 3, 11}, pairs_high = {4, 12, 5, 13, 6, 14, 7, 15};
-      const Index even = {0, 1, 8, 9, 2, 3, 10, 11}, odd = {4, 5, 12, 13, 6, 7, 14, 15};
-      const Lanes xy_low = __builtin_shuffle(qx, qy, pairs_low), xy_high = __builtin_shuffle(qx, qy, pairs_high);
-      const Lanes zw_low = __builtin_shuffle(qz, qw, pairs_low), zw_high = __builtin_shuffle(qz, qw, pairs_high);
-      const Lanes q01 = __builtin_shuffle(xy_low, zw_low, even), q23 = __builtin_shuffle(xy_low, zw_low, odd);
-      const Lanes q45 = __builtin_shuffle(xy_high, zw_high, even), q67 = __builtin_shuffle(xy_high, zw_high, odd);
-      static_assert(sizeof(Quat) == 4 * sizeof(double), "quaternions packed (x, y, z, w)");
-      std::memcpy(q[0].coeffs().data(), &q01, sizeof(Lanes));
-      std::memcpy(q[2].coeffs().data(), &q23, sizeof(Lanes));
-      std::memcpy(q[4].coeffs().data(), &q45, sizeof(Lanes));
-      std::memcpy(q[6].coeffs().data(), &q67, sizeof(Lanes));
+      // Session 17: q out of the lanes by permutes, one 64-byte store per two quaternions
+      // (LaneTypes<8>, rotation_batch_avx512.cpp); R (the local queries', not asked for here) lane by lane.
+      rotation_batch_detail::LaneTypes<L>::store_quaternions(qx, qy, qz, qw, q);
       if (rotation_matrices != nullptr) {
         Lanes Rl[3][3];
         rotation_entries(Rl);

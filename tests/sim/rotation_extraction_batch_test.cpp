@@ -195,6 +195,57 @@ TEST(RotationExtractionBatch, Avx512LanesThatStoppedStayWhileOneLaneIterates) {
   EXPECT_GT(fast_lanes, 0);
 }
 
+// Session 17: the evaluation pass's 8-lane kernel goes on from the rotations to the element forces in
+// the same lanes: q must be the scalar extraction's, and the energy and H = (-V P) Dm^-T the scalar
+// expressions' of CorotationalFem::evaluate_tet_batch for that q, bit for bit (the cases above, a
+// random full Dm^-1, volumes and Lame parameters over four decades, exact zeros among Dm^-1's entries).
+TEST(RotationExtractionBatch, Avx512RotationsAndElementForcesEqualTheScalarExpressionsBitForBit) {
+  if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
+  constexpr int L = kRotationBatchLanesAvx512;
+  std::mt19937_64 rng(20261129);
+  std::uniform_int_distribution<int> kinds(0, 6);
+  std::uniform_real_distribution<double> decade(-2.0, 2.0);
+  int compared = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    Mat3 F[L], Dm_inv[L], H[L];
+    Quat batch[L], scalar[L];
+    double volume[L], energy[L];
+    const int uniform = trial % 3 == 0 ? kinds(rng) : -1;
+    for (int l = 0; l < L; ++l) {
+      make_case(rng, uniform >= 0 ? uniform : kinds(rng), F[l], batch[l]);
+      scalar[l] = batch[l];
+      Dm_inv[l] = random_matrix(rng, std::pow(10.0, decade(rng) + 2.0));
+      if (trial % 4 == 0) Dm_inv[l](l % 3, (l + trial) % 3) = 0.0;
+      volume[l] = std::pow(10.0, decade(rng) - 6.0);
+    }
+    const double mu = 3e4 * std::pow(10.0, decade(rng)), lambda = 1e5 * std::pow(10.0, decade(rng));
+    const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
+    extract_rotations_and_element_forces_avx512(F, batch, Dm_inv, volume, mu, lambda, cap, kElementRotationTolerance,
+                                                energy, H);
+    for (int l = 0; l < L; ++l) {
+      extract_rotation(F[l], scalar[l], cap, kElementRotationTolerance);
+      const Mat3 R = scalar[l].toRotationMatrix();  // evaluate_tet_batch's expressions
+      const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
+      const Mat3 FmR = F[l] - R;
+      const double expected_energy = volume[l] * (mu * FmR.squaredNorm() + 0.5 * lambda * trace * trace);
+      const Mat3 P = 2.0 * mu * FmR + lambda * trace * R;
+      const Mat3 expected_H = -volume[l] * P * Dm_inv[l].transpose();
+#ifdef __FMA__
+      ASSERT_LT((H[l] - expected_H).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + expected_H.cwiseAbs().maxCoeff()));
+      ++compared;
+      continue;
+#endif
+      ASSERT_TRUE(same_bits(batch[l], scalar[l])) << "trial " << trial << " lane " << l;
+      ASSERT_EQ(std::memcmp(&energy[l], &expected_energy, sizeof(double)), 0)
+          << "trial " << trial << " lane " << l << ": " << energy[l] << " vs " << expected_energy;
+      ASSERT_EQ(std::memcmp(H[l].data(), expected_H.data(), sizeof(Mat3)), 0)
+          << "trial " << trial << " lane " << l << ":\n" << H[l] << "\nvs\n" << expected_H;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 20000 * L);
+}
+
 // Session 13: the local queries take R from the extraction's lanes (normalised and built there)
 // instead of q.toRotationMatrix() per tet: q and R must be the scalar extraction's q and its
 // toRotationMatrix() bit for bit, over the same cases and iteration caps as above.
