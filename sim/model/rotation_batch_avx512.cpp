@@ -122,16 +122,52 @@ PLIANT_AVX512_ONLY inline Lanes8 broadcast(double value) { return reinterpret_ca
 
 }  // namespace
 
-PLIANT_AVX512_ONLY __attribute__((flatten)) void extract_rotations_and_element_forces_avx512(
-    const Mat3* F, Quat* q, const Mat3* rest_shape_inverse, const double* volume, double mu, double lambda,
-    int max_iterations, double tolerance, double* energy, Mat3* H) {
+PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const double* x, const TetIndices* tets,
+                                                                       const Mat3* rest_shape_inverse,
+                                                                       const double* volume, double mu, double lambda,
+                                                                       int max_iterations, double tolerance, Quat* q,
+                                                                       double* energy, Mat3* H) {
   using Ops = rotation_batch_detail::LaneTypes<8>;
   using Lanes = Lanes8;
-  Lanes Fl[3][3];
-  Ops::load_matrices(F, Fl);
+  // The vertices' xyz by gathers: tets[l][k] for l = 0..7 out of the 32 packed indices, times 3.
+  static_assert(sizeof(TetIndices) == 4 * sizeof(int), "packed tet indices");
+  const __m512i indices_low = _mm512_loadu_si512(tets[0].data()), indices_high = _mm512_loadu_si512(tets[4].data());
+  Lanes corner[4][3];  // corner[k][c]: coordinate c of the tet's vertex k
+  for (int k = 0; k < 4; ++k) {
+    const __m512i pick = _mm512_setr_epi32(k, 4 + k, 8 + k, 12 + k, 16 + k, 20 + k, 24 + k, 28 + k, 0, 0, 0, 0, 0, 0, 0,
+                                           0);
+    // (the zero-masked extract: GCC 12's cast to 256 bits reads an undefined value, -Wuninitialized)
+    const __m256i vertex = _mm512_maskz_extracti64x4_epi64(0xf, _mm512_permutex2var_epi32(indices_low, pick, indices_high), 0);
+    const __m256i offset = _mm256_add_epi32(vertex, _mm256_add_epi32(vertex, vertex));  // 3 v
+    for (int c = 0; c < 3; ++c) {
+      corner[k][c] = reinterpret_cast<Lanes>(_mm512_mask_i32gather_pd(_mm512_setzero_pd(), 0xff, offset, x + c, 8));
+    }
+  }
+  // F = Ds Dm^-1 (CorotationalFem::deformation_gradient, as deformation_gradients_avx2 computes it):
+  // Ds(i, k) = x_{k+1}(i) - x_0(i); F(i, j) = sum_k Ds(i, k) B(k, j) in Eigen's order, rows 0 and 1
+  // (p0 + p1) + p2, row 2 p0 + (p1 + p2).
+  Lanes b[3][3];  // b[k][j] = Dm^-1(k, j)
+  Ops::load_matrices(rest_shape_inverse, b);
+  Lanes ds[3][3], Fl[3][3];
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) ds[i][k] = corner[k + 1][i] - corner[0][i];
+  }
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) {
+      const Lanes p0 = ds[i][0] * b[0][j], p1 = ds[i][1] * b[1][j], p2 = ds[i][2] * b[2][j];
+      Fl[i][j] = i < 2 ? (p0 + p1) + p2 : p0 + (p1 + p2);
+    }
+  }
+  // The rotations (a lane taking the SVD start reads its F out of the lanes).
+  const auto F_of_lane = [&](int l) {
+    Mat3 F;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) F(i, j) = Fl[i][j][l];
+    }
+    return F;
+  };
   Lanes qx, qy, qz, qw, count;
-  rotation_batch_detail::iterate_rotation_lanes<8>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
-                                                   tolerance, qx, qy, qz, qw, count);
+  rotation_batch_detail::iterate_rotation_lanes<8>(Fl, F_of_lane, q, max_iterations, tolerance, qx, qy, qz, qw, count);
   rotation_batch_detail::normalise_quaternion_lanes<8>(qx, qy, qz, qw);
   Ops::store_quaternions(qx, qy, qz, qw, q);
   // element_forces_avx2's expressions per lane (tet_gradient_kernels.cpp, element_forces_lanes), the
@@ -160,17 +196,16 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void extract_rotations_and_element_f
   // B(j, k), rows 0 and 1 (k0 + k1) + k2, row 2 k0 + (k1 + k2) (Eigen's order, product_transposed_lanes)
   const Lanes two_mu = broadcast(2.0 * mu), lambda_trace = broadcast(lambda) * trace;
   const Lanes minus_volume = -v;
-  Lanes a[9], b[3][3], h[9];
+  Lanes a[9], h[9];
   for (int k = 0; k < 9; ++k) a[k] = minus_volume * (two_mu * fmr[k] + lambda_trace * r[k]);
-  Ops::load_matrices(rest_shape_inverse, b);
   for (int j = 0; j < 3; ++j) {
     for (int i = 0; i < 3; ++i) {
       const Lanes p0 = a[i] * b[j][0], p1 = a[i + 3] * b[j][1], p2 = a[i + 6] * b[j][2];
       h[i + 3 * j] = i < 2 ? (p0 + p1) + p2 : p0 + (p1 + p2);
     }
   }
-  const __m512i tets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
-  for (int k = 0; k < 9; ++k) _mm512_i64scatter_pd(H[0].data() + k, tets, reinterpret_cast<__m512d>(h[k]), 8);
+  const __m512i matrix_offsets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
+  for (int k = 0; k < 9; ++k) _mm512_i64scatter_pd(H[0].data() + k, matrix_offsets, reinterpret_cast<__m512d>(h[k]), 8);
 }
 
 #else
@@ -184,8 +219,8 @@ void extract_rotations_batch_avx512(const Mat3* F, Quat* q, int max_iterations, 
   }
 }
 
-void extract_rotations_and_element_forces_avx512(const Mat3*, Quat*, const Mat3*, const double*, double, double, int,
-                                                 double, double*, Mat3*) {}
+void evaluate_tets_avx512(const double*, const TetIndices*, const Mat3*, const double*, double, double, int, double,
+                          Quat*, double*, Mat3*) {}
 
 #endif
 

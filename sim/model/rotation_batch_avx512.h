@@ -23,12 +23,14 @@ bool rotation_batch_avx512_available();
 void extract_rotations_batch_avx512(const Mat3* F, Quat* q, int max_iterations, double tolerance,
                                     int* iterations = nullptr);
 
-/// extract_rotations_batch_avx512 followed, in the same lanes, by element_forces_avx2's per-tet
-/// expressions (tet_gradient_kernels.h) for the 8 tets: energy[l] = V (mu |F - R|^2 + lambda/2
-/// trace^2) and H[l] = (-V P) Dm^-T, R = q[l].toRotationMatrix(), bit for bit (session 17: F, q and R
-/// are not transposed out of the lanes and back in between). Only where rotation_batch_avx512_available().
-void extract_rotations_and_element_forces_avx512(const Mat3* F, Quat* q, const Mat3* rest_shape_inverse,
-                                                 const double* volume, double mu, double lambda, int max_iterations,
-                                                 double tolerance, double* energy, Mat3* H);
+/// CorotationalFem's evaluation pass for 8 tets (tets[l], positions x packed xyz per vertex) in
+/// one kernel's lanes, bit for bit its scalar expressions (session 17): F = Ds Dm^-1, the rotation
+/// from the warm start q[l] (rewritten), energy[l] = V (mu |F - R|^2 + lambda/2 trace^2) and H[l] =
+/// (-V P) Dm^-T, R = q[l].toRotationMatrix(), trace = tr(R^T F) - 3 (the order of
+/// deformation_gradients_avx2 and element_forces_avx2, tet_gradient_kernels.h); F, q and R are not
+/// transposed out of the lanes and back in between. Only where rotation_batch_avx512_available().
+void evaluate_tets_avx512(const double* x, const TetIndices* tets, const Mat3* rest_shape_inverse, const double* volume,
+                          double mu, double lambda, int max_iterations, double tolerance, Quat* q, double* energy,
+                          Mat3* H);
 
 }  // namespace pliant

@@ -195,38 +195,58 @@ TEST(RotationExtractionBatch, Avx512LanesThatStoppedStayWhileOneLaneIterates) {
   EXPECT_GT(fast_lanes, 0);
 }
 
-// Session 17: the evaluation pass's 8-lane kernel goes on from the rotations to the element forces in
-// the same lanes: q must be the scalar extraction's, and the energy and H = (-V P) Dm^-T the scalar
-// expressions' of CorotationalFem::evaluate_tet_batch for that q, bit for bit (the cases above, a
-// random full Dm^-1, volumes and Lame parameters over four decades, exact zeros among Dm^-1's entries).
-TEST(RotationExtractionBatch, Avx512RotationsAndElementForcesEqualTheScalarExpressionsBitForBit) {
+// Session 17: the evaluation pass's 8-lane kernel (evaluate_tets_avx512) computes F from the
+// positions, the rotation and the element forces in the same lanes: against the scalar pass's
+// operations per tet (CorotationalFem::deformation_gradient's Ds * Dm^-1, extract_rotation from the
+// warm start, evaluate_tet_batch's energy and H = (-V P) Dm^-T), bit for bit. Each tet's F is one of
+// the cases above through a random full rest shape (volumes and Lame parameters over four decades),
+// its four vertices numbered at random in a shared position array.
+TEST(RotationExtractionBatch, Avx512PassKernelEqualsTheScalarPassExpressionsBitForBit) {
   if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
   constexpr int L = kRotationBatchLanesAvx512;
   std::mt19937_64 rng(20261129);
   std::uniform_int_distribution<int> kinds(0, 6);
-  std::uniform_real_distribution<double> decade(-2.0, 2.0);
+  std::uniform_real_distribution<double> decade(-2.0, 2.0), coordinate(-0.05, 0.05);
   int compared = 0;
   for (int trial = 0; trial < 20000; ++trial) {
-    Mat3 F[L], Dm_inv[L], H[L];
-    Quat batch[L], scalar[L];
+    std::vector<int> numbers(4 * L);
+    for (int v = 0; v < 4 * L; ++v) numbers[static_cast<size_t>(v)] = v;
+    std::shuffle(numbers.begin(), numbers.end(), rng);
+    TetIndices tets[L];
+    std::vector<Vec3> x(4 * L);
+    Mat3 Dm_inv[L], H[L];
+    Quat batch[L], warm[L];
     double volume[L], energy[L];
     const int uniform = trial % 3 == 0 ? kinds(rng) : -1;
     for (int l = 0; l < L; ++l) {
-      make_case(rng, uniform >= 0 ? uniform : kinds(rng), F[l], batch[l]);
-      scalar[l] = batch[l];
-      Dm_inv[l] = random_matrix(rng, std::pow(10.0, decade(rng) + 2.0));
-      if (trial % 4 == 0) Dm_inv[l](l % 3, (l + trial) % 3) = 0.0;
+      Mat3 target;
+      make_case(rng, uniform >= 0 ? uniform : kinds(rng), target, warm[l]);
+      batch[l] = warm[l];
+      const Mat3 rest_shape = 0.02 * (Mat3::Identity() + random_matrix(rng, 0.3));
+      Dm_inv[l] = rest_shape.inverse();
+      const Mat3 Ds = target * rest_shape;
+      const Vec3 x0(coordinate(rng), coordinate(rng), coordinate(rng));
+      for (size_t k = 0; k < 4; ++k) {
+        const int v = numbers[static_cast<size_t>(4 * l) + k];
+        tets[l][k] = v;
+        x[static_cast<size_t>(v)] = k == 0 ? x0 : Vec3(x0 + Ds.col(static_cast<int>(k) - 1));
+      }
       volume[l] = std::pow(10.0, decade(rng) - 6.0);
     }
     const double mu = 3e4 * std::pow(10.0, decade(rng)), lambda = 1e5 * std::pow(10.0, decade(rng));
     const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
-    extract_rotations_and_element_forces_avx512(F, batch, Dm_inv, volume, mu, lambda, cap, kElementRotationTolerance,
-                                                energy, H);
+    evaluate_tets_avx512(x.data()->data(), tets, Dm_inv, volume, mu, lambda, cap, kElementRotationTolerance, batch,
+                         energy, H);
     for (int l = 0; l < L; ++l) {
-      extract_rotation(F[l], scalar[l], cap, kElementRotationTolerance);
-      const Mat3 R = scalar[l].toRotationMatrix();  // evaluate_tet_batch's expressions
-      const double trace = R.cwiseProduct(F[l]).sum() - 3.0;
-      const Mat3 FmR = F[l] - R;
+      const Vec3& x0 = x[static_cast<size_t>(tets[l][0])];
+      Mat3 Ds;  // CorotationalFem::deformation_gradient's expressions
+      for (int k = 0; k < 3; ++k) Ds.col(k) = x[static_cast<size_t>(tets[l][static_cast<size_t>(k) + 1])] - x0;
+      const Mat3 F = Ds * Dm_inv[l];
+      Quat scalar = warm[l];
+      extract_rotation(F, scalar, cap, kElementRotationTolerance);
+      const Mat3 R = scalar.toRotationMatrix();  // evaluate_tet_batch's expressions
+      const double trace = R.cwiseProduct(F).sum() - 3.0;
+      const Mat3 FmR = F - R;
       const double expected_energy = volume[l] * (mu * FmR.squaredNorm() + 0.5 * lambda * trace * trace);
       const Mat3 P = 2.0 * mu * FmR + lambda * trace * R;
       const Mat3 expected_H = -volume[l] * P * Dm_inv[l].transpose();
@@ -235,7 +255,7 @@ TEST(RotationExtractionBatch, Avx512RotationsAndElementForcesEqualTheScalarExpre
       ++compared;
       continue;
 #endif
-      ASSERT_TRUE(same_bits(batch[l], scalar[l])) << "trial " << trial << " lane " << l;
+      ASSERT_TRUE(same_bits(batch[l], scalar)) << "trial " << trial << " lane " << l;
       ASSERT_EQ(std::memcmp(&energy[l], &expected_energy, sizeof(double)), 0)
           << "trial " << trial << " lane " << l << ": " << energy[l] << " vs " << expected_energy;
       ASSERT_EQ(std::memcmp(H[l].data(), expected_H.data(), sizeof(Mat3)), 0)
