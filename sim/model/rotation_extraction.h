@@ -131,10 +131,11 @@ inline constexpr int kRotationBatchLanes = 2;
 // with FMA contraction, -march=native, both may round differently). A lane that stopped keeps its
 // q, G and count; the batch runs until every lane stopped.
 namespace rotation_batch_detail {
-/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1), with the two
-/// lane operations GCC's vector types do not have: any lane set, and a square root. Spelled out per
-/// L: GCC does not apply a vector_size that depends on a template parameter. LaneTypes<8> lives in
-/// rotation_batch_avx512.cpp, its operations AVX-512 instructions (session 17).
+/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1), with the lane
+/// operations the templates below use: comparisons, selects, any lane set, a square root, and the
+/// loads of q and F into lanes. Spelled out per L: GCC does not apply a vector_size that depends on
+/// a template parameter. LaneTypes<8> lives in rotation_batch_avx512.cpp, its operations AVX-512
+/// instructions (session 17: why they are functions there, not GCC's vector operators).
 template <int L>
 struct LaneTypes;
 /// The lane operations lane by lane (the 2- and 4-lane batches').
