@@ -483,21 +483,21 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
   } else {
     for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
   }
-  size_t done = 0;  // tets whose rotation is extracted
-  if (lanes == kRotationBatchLanesAvx512 && avx512_lanes()) {
+  if (lanes == L && vector_kernels_) {
+    extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  } else if (lanes == L) {
+    extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  } else if (lanes == kRotationBatchLanesAvx512 && avx512_lanes()) {
     extract_rotations_batch_avx512(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
-    done = lanes;
-  }
-  for (; done + L <= lanes; done += L) {  // (a short batch of the 8-lane pass: four in AVX2 lanes first)
-    if (vector_kernels_) {
+  } else {
+    size_t done = 0;  // a short batch of the 8-lane pass: four in AVX2 lanes first, then tet by tet
+    for (; done + L <= lanes && vector_kernels_; done += L) {
       extract_rotations_batch_avx2(F + done, &rotations[t0 + done], kElementRotationIterations,
                                    kElementRotationTolerance);
-    } else {
-      extract_rotations_batch(F + done, &rotations[t0 + done], kElementRotationIterations, kElementRotationTolerance);
     }
-  }
-  for (; done < lanes; ++done) {
-    extract_rotation(F[done], rotations[t0 + done], kElementRotationIterations, kElementRotationTolerance);
+    for (; done < lanes; ++done) {
+      extract_rotation(F[done], rotations[t0 + done], kElementRotationIterations, kElementRotationTolerance);
+    }
   }
   if (lanes_kernels) {
     element_forces_avx2(&rotations[t0], F, &rest_shape_inverse_[t0], &volume_[t0], mu_, lambda_, lanes, &tet_energy[t0],
