@@ -469,14 +469,16 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
   // 17, rotation_batch_avx512.h), a short batch tet by tet in order.
   const size_t L = evaluation_batch_lanes();
   const bool lanes_kernels = vector_kernels_ && tet_kernels_on_this_cpu();  // tet_gradient_kernels.h, bit for bit
-  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
   if (lanes == kRotationBatchLanesAvx512 && avx512_lanes() && lanes_kernels) {
     // Session 17: F, rotations, energies and element forces in one kernel's lanes (the expressions
-    // of deformation_gradients_avx2 and element_forces_avx2, the same bits).
+    // of deformation_gradients_avx2 and element_forces_avx2, the same bits), the warm starts read
+    // where they are.
     evaluate_tets_avx512(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], &volume_[t0], mu_, lambda_,
-                         kElementRotationIterations, kElementRotationTolerance, &rotations[t0], &tet_energy[t0], H);
+                         kElementRotationIterations, kElementRotationTolerance, &warm_starts[t0], &rotations[t0],
+                         &tet_energy[t0], H);
     return;
   }
+  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
   Mat3 F[kMaxPassLanes];
   if (lanes_kernels) {
     deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], lanes, F);

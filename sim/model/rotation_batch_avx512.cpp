@@ -125,7 +125,8 @@ PLIANT_AVX512_ONLY inline Lanes8 broadcast(double value) { return reinterpret_ca
 PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const double* x, const TetIndices* tets,
                                                                        const Mat3* rest_shape_inverse,
                                                                        const double* volume, double mu, double lambda,
-                                                                       int max_iterations, double tolerance, Quat* q,
+                                                                       int max_iterations, double tolerance,
+                                                                       const Quat* warm_starts, Quat* q,
                                                                        double* energy, Mat3* H) {
   using Ops = rotation_batch_detail::LaneTypes<8>;
   using Lanes = Lanes8;
@@ -167,7 +168,8 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const doub
     return F;
   };
   Lanes qx, qy, qz, qw, count;
-  rotation_batch_detail::iterate_rotation_lanes<8>(Fl, F_of_lane, q, max_iterations, tolerance, qx, qy, qz, qw, count);
+  rotation_batch_detail::iterate_rotation_lanes<8>(Fl, F_of_lane, warm_starts, q, max_iterations, tolerance, qx, qy, qz,
+                                                   qw, count);
   rotation_batch_detail::normalise_quaternion_lanes<8>(qx, qy, qz, qw);
   Ops::store_quaternions(qx, qy, qz, qw, q);
   // element_forces_avx2's expressions per lane (tet_gradient_kernels.cpp, element_forces_lanes), the
@@ -220,7 +222,7 @@ void extract_rotations_batch_avx512(const Mat3* F, Quat* q, int max_iterations, 
 }
 
 void evaluate_tets_avx512(const double*, const TetIndices*, const Mat3*, const double*, double, double, int, double,
-                          Quat*, double*, Mat3*) {}
+                          const Quat*, Quat*, double*, Mat3*) {}
 
 #endif
 

@@ -25,12 +25,12 @@ void extract_rotations_batch_avx512(const Mat3* F, Quat* q, int max_iterations, 
 
 /// CorotationalFem's evaluation pass for 8 tets (tets[l], positions x packed xyz per vertex) in
 /// one kernel's lanes, bit for bit its scalar expressions (session 17): F = Ds Dm^-1, the rotation
-/// from the warm start q[l] (rewritten), energy[l] = V (mu |F - R|^2 + lambda/2 trace^2) and H[l] =
+/// q[l] from the warm start warm_starts[l] (q may be warm_starts), energy[l] = V (mu |F - R|^2 + lambda/2 trace^2) and H[l] =
 /// (-V P) Dm^-T, R = q[l].toRotationMatrix(), trace = tr(R^T F) - 3 (the order of
 /// deformation_gradients_avx2 and element_forces_avx2, tet_gradient_kernels.h); F, q and R are not
 /// transposed out of the lanes and back in between. Only where rotation_batch_avx512_available().
 void evaluate_tets_avx512(const double* x, const TetIndices* tets, const Mat3* rest_shape_inverse, const double* volume,
-                          double mu, double lambda, int max_iterations, double tolerance, Quat* q, double* energy,
-                          Mat3* H);
+                          double mu, double lambda, int max_iterations, double tolerance, const Quat* warm_starts,
+                          Quat* q, double* energy, Mat3* H);
 
 }  // namespace pliant

@@ -197,18 +197,20 @@ inline bool any(const Mask& m) {
 
 /// extract_rotation's start and Newton iteration for L tets in lanes, from F's entries Fl[i][j]
 /// (lane l = tet l; F_of_lane(l) the same F as a matrix, read by a lane that takes the SVD start)
-/// and the warm starts q[l] (rewritten only by the SVD start): leaves each lane's unnormalised
+/// and the warm starts warm_starts[l] (a lane taking the SVD start writes its start into q[l]; q may
+/// be warm_starts; session 17: the pass's kernel reads the warm starts from one array and writes
+/// another, without a copy first): leaves each lane's unnormalised
 /// quaternion in qx, qy, qz, qw and its update count in count (session 14: shared by
 /// extract_rotations_lanes and the exact query's kernel, which computes F in the lanes itself).
 template <int L, class FOfLane>
-inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3], FOfLane F_of_lane, Quat* q,
-                                   int max_iterations, double tolerance, typename LaneTypes<L>::Lanes& qx,
+inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3], FOfLane F_of_lane,
+                                   const Quat* warm_starts, Quat* q, int max_iterations, double tolerance, typename LaneTypes<L>::Lanes& qx,
                                    typename LaneTypes<L>::Lanes& qy, typename LaneTypes<L>::Lanes& qz,
                                    typename LaneTypes<L>::Lanes& qw, typename LaneTypes<L>::Lanes& count) {
   using Lanes = typename LaneTypes<L>::Lanes;
   using Mask = typename LaneTypes<L>::Mask;
   Lanes G[3][3];  // G(i, j) per lane
-  LaneTypes<L>::load_quaternions(q, qx, qy, qz, qw);
+  LaneTypes<L>::load_quaternions(warm_starts, qx, qy, qz, qw);
   // rotation_iteration_start in the lanes: R = q.toRotationMatrix() (Eigen's expressions), G = R^T F.
   {
     const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
@@ -233,6 +235,7 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
   if (any<L>(facing_away)) {
     for (int l = 0; l < L; ++l) {
       if (facing_away[l] == 0 || !F_of_lane(l).allFinite()) continue;
+      q[l] = warm_starts[l];  // (the same quaternion where the caller passes q twice)
       const Mat3 start = rotation_iteration_start(F_of_lane(l), q[l]);
       for (int i = 0; i < 3; ++i) {
         for (int j = 0; j < 3; ++j) G[i][j][l] = start(i, j);
@@ -354,7 +357,7 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
   Lanes Fl[3][3];  // F(i, j) per lane
   rotation_batch_detail::LaneTypes<L>::load_matrices(F, Fl);
   Lanes qx, qy, qz, qw, count;
-  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
+  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, q, max_iterations,
                                                    tolerance, qx, qy, qz, qw, count);
   if (L >= 4 || rotation_matrices != nullptr) {
     // Session 13: the normalisation in the lanes (the per-lane normalisation was ~23 instructions

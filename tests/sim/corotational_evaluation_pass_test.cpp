@@ -201,6 +201,14 @@ TEST(CorotationalEvaluationPass, EightLanePassEqualsTheFourLaneAndTheScalarPassB
         ASSERT_EQ(std::memcmp(r8.data(), r4.data(), sizeof(Mat3)), 0) << n << " tets, pass " << pass << ", tet " << t;
         ASSERT_EQ(std::memcmp(r8.data(), rs.data(), sizeof(Mat3)), 0) << n << " tets, pass " << pass << ", tet " << t;
       }
+      // The energy query at moved positions: a full pass from the cached rotations into the pass memo
+      // (warm starts read from one array, rotations written to another).
+      std::vector<Vec3> moved = x;
+      for (size_t i = 0; i < nv; ++i) moved[i] += 1e-4 * Vec3(u(rng), u(rng), u(rng));
+      const double m8 = eight.elastic_energy(moved), m4 = four.elastic_energy(moved), ms = scalar.elastic_energy(moved);
+      ASSERT_EQ(std::memcmp(&m8, &m4, sizeof(double)), 0) << n << " tets, pass " << pass << ", moved";
+      ASSERT_EQ(std::memcmp(&m8, &ms, sizeof(double)), 0) << n << " tets, pass " << pass << ", moved";
+      ASSERT_NE(m8, e8);
       // The rotations are polar rotations: R^T F symmetric at convergence (a check that the pass
       // compared above did extract rotations, not merely agree with itself; for det F > 0: from an
       // inverted tet the iteration climbs slowly, by the paper's gradient step, and may stop at its cap).
