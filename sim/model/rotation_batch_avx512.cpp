@@ -21,10 +21,57 @@ namespace rotation_batch_detail {
 /// into a vector of 0 / -1 lanes that the AVX-512 expansion then builds lane by lane, with branches,
 /// and every select on it too. Here a comparison is one vcmppd into a mask register and one vpmovm2q,
 /// a select one vpternlogq (a bitwise select of the 0 / -1 lanes: m ? a : b exactly).
+typedef double Lanes8 __attribute__((vector_size(64)));
+typedef long Index8 __attribute__((vector_size(64)));
+
+/// out[i] lane j = in[j] lane i: an 8 x 8 transpose in three rounds of two-register shuffles
+/// (pairs of entries, then quads, then halves), 24 shuffles.
+PLIANT_AVX512_ONLY inline void transpose8(const Lanes8 (&in)[8], Lanes8 (&out)[8]) {
+  const Index8 pair_even = {0, 8, 2, 10, 4, 12, 6, 14}, pair_odd = {1, 9, 3, 11, 5, 13, 7, 15};
+  const Index8 quad_low = {0, 1, 8, 9, 4, 5, 12, 13}, quad_high = {2, 3, 10, 11, 6, 7, 14, 15};
+  const Index8 half_low = {0, 1, 2, 3, 8, 9, 10, 11}, half_high = {4, 5, 6, 7, 12, 13, 14, 15};
+  Lanes8 pairs[8], quads[8];
+  for (int i = 0; i < 4; ++i) {
+    pairs[2 * i] = __builtin_shuffle(in[2 * i], in[2 * i + 1], pair_even);     // columns 0, 2, 4, 6
+    pairs[2 * i + 1] = __builtin_shuffle(in[2 * i], in[2 * i + 1], pair_odd);  // columns 1, 3, 5, 7
+  }
+  for (int g = 0; g < 8; g += 4) {  // rows 0-3 (g = 0) and 4-7 (g = 4) of in
+    quads[g] = __builtin_shuffle(pairs[g], pairs[g + 2], quad_low);            // columns 0, 4
+    quads[g + 1] = __builtin_shuffle(pairs[g + 1], pairs[g + 3], quad_low);    // columns 1, 5
+    quads[g + 2] = __builtin_shuffle(pairs[g], pairs[g + 2], quad_high);       // columns 2, 6
+    quads[g + 3] = __builtin_shuffle(pairs[g + 1], pairs[g + 3], quad_high);   // columns 3, 7
+  }
+  for (int j = 0; j < 4; ++j) {
+    out[j] = __builtin_shuffle(quads[j], quads[j + 4], half_low);
+    out[j + 4] = __builtin_shuffle(quads[j], quads[j + 4], half_high);
+  }
+}
+
+/// The column-major entries of 8 packed 3x3 matrices, e[k] lane l = m[l].data()[k]: entries 0-7 by
+/// one 64-byte load per matrix and transpose8, entry 8 by a gather.
+PLIANT_AVX512_ONLY inline void load_entries8(const Mat3* m, Lanes8 (&e)[9]) {
+  Lanes8 rows[8];
+  for (int l = 0; l < 8; ++l) std::memcpy(&rows[l], m[l].data(), sizeof(Lanes8));
+  Lanes8 (&first)[8] = *reinterpret_cast<Lanes8(*)[8]>(&e[0]);
+  transpose8(rows, first);
+  const __m512i matrix_offsets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
+  // (the masked form: GCC 12's unmasked gather reads an uninitialised source, -Wuninitialized)
+  e[8] = reinterpret_cast<Lanes8>(_mm512_mask_i64gather_pd(_mm512_setzero_pd(), 0xff, matrix_offsets, m[0].data() + 8, 8));
+}
+
+/// The inverse of load_entries8: m[l].data()[k] = e[k] lane l.
+PLIANT_AVX512_ONLY inline void store_entries8(const Lanes8 (&e)[9], Mat3* m) {
+  Lanes8 rows[8];
+  transpose8(*reinterpret_cast<const Lanes8(*)[8]>(&e[0]), rows);
+  for (int l = 0; l < 8; ++l) std::memcpy(m[l].data(), &rows[l], sizeof(Lanes8));  // entries 0-7
+  const __m512i matrix_offsets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
+  _mm512_i64scatter_pd(m[0].data() + 8, matrix_offsets, reinterpret_cast<__m512d>(e[8]), 8);
+}
+
 template <>
 struct LaneTypes<8> {
-  typedef double Lanes __attribute__((vector_size(64)));
-  typedef long Mask __attribute__((vector_size(64)));
+  typedef Lanes8 Lanes;
+  typedef Index8 Mask;
   PLIANT_AVX512_ONLY static Mask less(const Lanes& a, const Lanes& b) { return a < b; }
   PLIANT_AVX512_ONLY static Mask less_equal(const Lanes& a, const Lanes& b) { return a <= b; }
   PLIANT_AVX512_ONLY static Lanes select(const Mask& m, const Lanes& a, const Lanes& b) {
@@ -71,16 +118,11 @@ struct LaneTypes<8> {
     _mm512_storeu_pd(p + 16, _mm512_permutex2var_pd(xy_high, even, zw_high));
     _mm512_storeu_pd(p + 24, _mm512_permutex2var_pd(xy_high, odd, zw_high));
   }
-  /// Lane l of Fl[i][j] = F[l](i, j): one gather per entry (the eight matrices packed, 9 doubles apart).
+  /// Lane l of Fl[i][j] = F[l](i, j) (load_entries8: the eight matrices packed).
   PLIANT_AVX512_ONLY static void load_matrices(const Mat3* F, Lanes (&Fl)[3][3]) {
-    const __m512i tets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) {
-        // (the masked form: GCC 12's unmasked gather reads an uninitialised source, -Wuninitialized)
-        Fl[i][j] = reinterpret_cast<Lanes>(
-            _mm512_mask_i64gather_pd(_mm512_setzero_pd(), 0xff, tets, F[0].data() + i + 3 * j, 8));
-      }
-    }
+    Lanes e[9];
+    load_entries8(F, e);
+    for (int k = 0; k < 9; ++k) Fl[k % 3][k / 3] = e[k];
   }
   /// s = sqrt(n) where n > 0, 1 elsewhere: one masked vsqrtpd (correctly rounded, as std::sqrt).
   PLIANT_AVX512_ONLY static void square_root_where_positive(const Lanes& n, Lanes& s) {
@@ -108,7 +150,7 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void extract_rotations_batch_avx512(
 
 namespace {
 
-using Lanes8 = rotation_batch_detail::LaneTypes<8>::Lanes;
+using rotation_batch_detail::Lanes8;
 
 /// The sum of a column-major 3x3 matrix's nine entries per lane in Eigen's order for M.sum() in the
 /// portable build (matrix_entry_lanes.h's entry_sum9): ((e0 + e2) + (e4 + e6)) + ((e1 + e3) + (e5 + e7)),
@@ -206,8 +248,7 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const doub
       h[i + 3 * j] = i < 2 ? (p0 + p1) + p2 : p0 + (p1 + p2);
     }
   }
-  const __m512i matrix_offsets = _mm512_setr_epi64(0, 9, 18, 27, 36, 45, 54, 63);
-  for (int k = 0; k < 9; ++k) _mm512_i64scatter_pd(H[0].data() + k, matrix_offsets, reinterpret_cast<__m512d>(h[k]), 8);
+  rotation_batch_detail::store_entries8(h, H);  // entries 0-7 transposed, one 64-byte store per tet
 }
 
 #else
