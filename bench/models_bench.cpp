@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -21,6 +22,9 @@
 #include "sim/mesh/box_mesh.h"
 #include "sim/model/corotational_fem.h"
 #include "sim/model/fused_ssor_kernels.h"
+#include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
+#include "sim/model/rotation_extraction.h"
 #include "sim/model/teschner_explicit.h"
 
 namespace pliant {
@@ -130,9 +134,11 @@ BENCHMARK(BM_CorotationalInternalForcesAt8Vertices)->Arg(0)->Arg(1)->Unit(benchm
 // World's report stage after a step: elastic_energy at the step's result, arg 0, and after the
 // contact stage moved 8 vertices by 1 mm, arg 1. Since session 3 advance defers the evaluation at
 // its result to this query, so this is a full pass (rotations, forces, energies; not K').
+// Arg 2: unmoved, the rotations four tets at a time (AVX2) where arg 0 takes eight (AVX-512, session 17).
 void BM_CorotationalEnergyAfterStep(benchmark::State& state) {
   Beam beam;
   CorotationalFem model(beam.mesh, beam.material, {});
+  if (state.range(0) == 2) model.set_avx512_lanes(false);
   beam.settle(model);
   if (state.range(0) == 1) {
     for (int v : probe_vertices()) beam.x[static_cast<size_t>(v)] += Vec3(0.0, 0.0, -1e-3);
@@ -146,9 +152,65 @@ void BM_CorotationalEnergyAfterStep(benchmark::State& state) {
     energy = model.elastic_energy(beam.x);
     benchmark::DoNotOptimize(energy);
   }
-  state.SetLabel(state.range(0) == 1 ? "8 vertices moved" : "unmoved");
+  state.SetLabel(state.range(0) == 1 ? "8 vertices moved" : state.range(0) == 2 ? "unmoved, 4 lanes" : "unmoved");
 }
-BENCHMARK(BM_CorotationalEnergyAfterStep)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CorotationalEnergyAfterStep)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
+
+// The evaluation pass's rotation batch alone (session 17): 4,320 tets (the probe's tissue) through
+// extract_rotations_batch_avx2 (arg 0 = 4) or _avx512 (8), from warm starts copied in before each
+// batch. Arg 1 the mix: 0, every tet a small strain of a rotated tet with its warm start ~1e-3 rad
+// away (1-2 iterations, the probe's); 1, the same with every eighth tet a large stretch from a far
+// warm start (~5-7 iterations): each 8-lane batch then waits for one slow lane, half the 4-lane
+// batches do; 2, every tet slow.
+void BM_RotationBatch(benchmark::State& state) {
+  const int lanes = static_cast<int>(state.range(0)), mix = static_cast<int>(state.range(1));
+  if (lanes == kRotationBatchLanesAvx512 ? !rotation_batch_avx512_available() : !rotation_batch_avx2_available()) {
+    state.SkipWithError("no kernel for these lanes on this CPU");
+    return;
+  }
+  constexpr size_t kTets = 4320;
+  std::vector<Mat3> F(kTets);
+  std::vector<Quat> warm(kTets), q(kTets);
+  uint64_t seed = 20261128;
+  const auto uniform = [&seed] {  // [-1, 1), a fixed sequence (splitmix64)
+    seed += 0x9e3779b97f4a7c15ull;
+    uint64_t z = seed;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-52 - 1.0;
+  };
+  const auto rotation = [&] { return Quat(uniform(), uniform(), uniform(), uniform()).normalized(); };
+  for (size_t t = 0; t < kTets; ++t) {
+    const bool slow = mix == 2 || (mix == 1 && t % 8 == 3);
+    const Quat R = rotation();
+    Mat3 S = Mat3::Identity();
+    for (int k = 0; k < 9; ++k) S.data()[k] += (slow ? 0.5 : 1e-3) * uniform();
+    F[t] = R.toRotationMatrix() * S;
+    // the warm start ~1e-3 rad (fast) or up to ~1 rad (slow; facing F, so no SVD start) from R
+    const double away = slow ? 0.5 : 5e-4;
+    warm[t] = (R * Quat(1.0, away * uniform(), away * uniform(), away * uniform()).normalized()).normalized();
+  }
+  for (auto _ : state) {
+    std::copy(warm.begin(), warm.end(), q.begin());
+    for (size_t t = 0; t < kTets; t += static_cast<size_t>(lanes)) {
+      if (lanes == kRotationBatchLanesAvx512) {
+        extract_rotations_batch_avx512(&F[t], &q[t], kElementRotationIterations, kElementRotationTolerance);
+      } else {
+        extract_rotations_batch_avx2(&F[t], &q[t], kElementRotationIterations, kElementRotationTolerance);
+      }
+    }
+    benchmark::DoNotOptimize(q.data());
+  }
+  int iterations = 0;  // per tet, from the scalar extraction
+  for (size_t t = 0; t < kTets; ++t) {
+    Quat r = warm[t];
+    iterations += extract_rotation(F[t], r, kElementRotationIterations, kElementRotationTolerance);
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kTets));
+  state.SetLabel(std::to_string(lanes) + " lanes, " + std::to_string(static_cast<double>(iterations) / kTets).substr(0, 4) +
+                 " iterations per tet");
+}
+BENCHMARK(BM_RotationBatch)->ArgsProduct({{4, 8}, {0, 1, 2}})->Unit(benchmark::kMicrosecond);
 
 // One K' product: the body of one CG iteration (plus O(n) vector updates).
 void BM_StiffnessProduct(benchmark::State& state) {

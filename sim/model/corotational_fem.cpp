@@ -13,6 +13,7 @@
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/preconditioned_cg.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/model/stiffness_row_kernels.h"
 #include "sim/model/tet_gradient_kernels.h"
@@ -32,6 +33,9 @@ inline void scatter_tet(const TetIndices& tet, const Mat3& H, std::span<Vec3> f)
   f[static_cast<size_t>(tet[0])] -= H.col(0) + H.col(1) + H.col(2);
   for (int j = 0; j < 3; ++j) f[static_cast<size_t>(tet[static_cast<size_t>(j + 1)])] += H.col(j);
 }
+
+/// The most tets in one batch of the evaluation pass (evaluation_pass_lanes()).
+constexpr size_t kMaxPassLanes = std::max({kRotationBatchLanesAvx512, kRotationBatchLanesAvx2, kRotationBatchLanes});
 
 /// tet_gradient_kernels_available(), asked once (the callers test it per batch of tets).
 inline bool tet_kernels_on_this_cpu() {
@@ -74,6 +78,7 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       product_(product),
       fused_sweeps_(settings.fused_sweeps && fused_sweeps_available()),
       vector_kernels_(stiffness_row_kernels_available() && rotation_batch_avx2_available()),
+      avx512_lanes_(rotation_batch_avx512_available()),
       coarse_aggregate_size_(settings.coarse_aggregate_size) {
   const auto& X = mesh_->rest_positions();
   const auto nt = static_cast<size_t>(mesh_->tet_count());
@@ -451,28 +456,49 @@ size_t CorotationalFem::evaluation_batch_lanes() const {
   return vector_kernels_ ? kRotationBatchLanesAvx2 : kRotationBatchLanes;
 }
 
+size_t CorotationalFem::evaluation_pass_lanes() const {
+  return avx512_lanes() ? kRotationBatchLanesAvx512 : evaluation_batch_lanes();
+}
+
 void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vector<Quat>& warm_starts,
                                          std::vector<Quat>& rotations, std::vector<double>& tet_energy, size_t t0,
                                          size_t lanes, Mat3* H) const {
   // Rotations a batch at a time (extract_rotations_batch: the scalar's result bit for bit, the
   // latency-bound iterations of the lanes overlapped), four in AVX2 registers where the CPU has
-  // them (session 9, rotation_batch_avx2.h), a short batch tet by tet in order.
+  // them (session 9, rotation_batch_avx2.h), eight in AVX-512 registers where it has those (session
+  // 17, rotation_batch_avx512.h), a short batch tet by tet in order.
   const size_t L = evaluation_batch_lanes();
-  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
   const bool lanes_kernels = vector_kernels_ && tet_kernels_on_this_cpu();  // tet_gradient_kernels.h, bit for bit
+  if (lanes == kRotationBatchLanesAvx512 && avx512_lanes() && lanes_kernels) {
+    // Session 17: F, rotations, energies and element forces in one kernel's lanes (the expressions
+    // of deformation_gradients_avx2 and element_forces_avx2, the same bits), the warm starts read
+    // where they are.
+    evaluate_tets_avx512(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], &volume_[t0], mu_, lambda_,
+                         kElementRotationIterations, kElementRotationTolerance, &warm_starts[t0], &rotations[t0],
+                         &tet_energy[t0], H);
+    return;
+  }
+  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
+  Mat3 F[kMaxPassLanes];
   if (lanes_kernels) {
     deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], lanes, F);
   } else {
     for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
   }
-  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
   if (lanes == L && vector_kernels_) {
     extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
   } else if (lanes == L) {
     extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  } else if (lanes == kRotationBatchLanesAvx512 && avx512_lanes()) {
+    extract_rotations_batch_avx512(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
   } else {
-    for (size_t l = 0; l < lanes; ++l) {
-      extract_rotation(F[l], rotations[t0 + l], kElementRotationIterations, kElementRotationTolerance);
+    size_t done = 0;  // a short batch of the 8-lane pass: four in AVX2 lanes first, then tet by tet
+    for (; done + L <= lanes && vector_kernels_; done += L) {
+      extract_rotations_batch_avx2(F + done, &rotations[t0 + done], kElementRotationIterations,
+                                   kElementRotationTolerance);
+    }
+    for (; done < lanes; ++done) {
+      extract_rotation(F[done], rotations[t0 + done], kElementRotationIterations, kElementRotationTolerance);
     }
   }
   if (lanes_kernels) {
@@ -500,8 +526,8 @@ double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector
   std::fill(forces.begin(), forces.end(), Vec3::Zero());
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
-  const size_t L = evaluation_batch_lanes();
-  Mat3 H[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
+  const size_t L = evaluation_pass_lanes();
+  Mat3 H[kMaxPassLanes];
   for (size_t t0 = 0; t0 < nt; t0 += L) {
     const size_t lanes = std::min(L, nt - t0);
     evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, lanes, H);
@@ -919,6 +945,8 @@ void CorotationalFem::set_fused_sweeps(bool on) { fused_sweeps_ = on && fused_sw
 void CorotationalFem::set_vector_kernels(bool on) {
   vector_kernels_ = on && stiffness_row_kernels_available() && rotation_batch_avx2_available();
 }
+
+void CorotationalFem::set_avx512_lanes(bool on) { avx512_lanes_ = on && rotation_batch_avx512_available(); }
 
 void CorotationalFem::build_lower_pattern() const {
   if (block_row_offsets_.empty()) return;  // no assembled K'

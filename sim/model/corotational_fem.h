@@ -130,6 +130,12 @@ class CorotationalFem final : public DeformationModel {
   void set_vector_kernels(bool on);
   /// True when the fixed part runs the AVX2 kernels.
   bool vector_kernels() const { return vector_kernels_; }
+  /// The evaluation pass's rotations eight tets at a time in AVX-512 registers (session 17; on by
+  /// default where the CPU has AVX-512 and the vector kernels are on), bit for bit the 4-lane batch's
+  /// and the scalar's. false: four at a time (AVX2). Ignored without AVX-512 or the vector kernels.
+  void set_avx512_lanes(bool on);
+  /// True when the evaluation pass extracts rotations eight tets at a time.
+  bool avx512_lanes() const { return vector_kernels_ && avx512_lanes_; }
   /// True while the assembled K' matches the current rotations: set inside advance and by
   /// update_rotations, kept by local updates, cleared when advance returns (its result is deferred)
   /// and by a query's full pass.
@@ -162,10 +168,12 @@ class CorotationalFem final : public DeformationModel {
   /// `rotations` itself), forces (N), per-tet energies (J); returns the energy (J).
   double evaluate_pass(std::span<const Vec3> x, const std::vector<Quat>& warm_starts, std::vector<Quat>& rotations,
                        std::vector<Vec3>& forces, std::vector<double>& tet_energy) const;
-  /// Tets in one rotation batch of evaluate_pass (four with the AVX2 lanes, kRotationBatchLanes
+  /// Tets in one rotation batch of the local queries (four with the AVX2 lanes, kRotationBatchLanes
   /// otherwise).
   size_t evaluation_batch_lanes() const;
-  /// evaluate_pass's per-tet work for tets t0 .. t0 + lanes - 1 (lanes <= evaluation_batch_lanes()):
+  /// Tets in one batch of evaluate_pass: evaluation_batch_lanes(), eight with the AVX-512 lanes.
+  size_t evaluation_pass_lanes() const;
+  /// evaluate_pass's per-tet work for tets t0 .. t0 + lanes - 1 (lanes <= evaluation_pass_lanes()):
   /// rotations from `warm_starts` into `rotations`, energies (J) into `tet_energy`, and each tet's
   /// -V P Dm^-T (N) into H[l]; shared by the serial and the threaded pass, so both are the same bits.
   void evaluate_tet_batch(std::span<const Vec3> x, const std::vector<Quat>& warm_starts, std::vector<Quat>& rotations,
@@ -295,6 +303,7 @@ class CorotationalFem final : public DeformationModel {
   Preconditioner preconditioner_kind_ = Preconditioner::ssor;
   bool fused_sweeps_ = false;  ///< set_fused_sweeps (the constructor: ModelSettings::fused_sweeps where available)
   bool vector_kernels_ = false;  ///< set_vector_kernels (the constructor: on where available)
+  bool avx512_lanes_ = false;    ///< set_avx512_lanes (the constructor: on where available)
   int coarse_aggregate_size_ = 0;  ///< set_coarse_aggregate_size (the constructor: ModelSettings)
   CoarseSpace coarse_;             ///< aggregates and deflation operators of the coarse correction
 

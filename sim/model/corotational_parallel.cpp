@@ -13,6 +13,7 @@
 
 #include "sim/model/corotational_fem.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/parallel/task_executor.h"
 
@@ -25,7 +26,8 @@ namespace {
 constexpr size_t kTetChunk = 128;
 /// Vertex rows per chunk of the force gather and of the K' assembly.
 constexpr size_t kRowChunk = 64;
-static_assert(kTetChunk % kRotationBatchLanes == 0 && kTetChunk % kRotationBatchLanesAvx2 == 0,
+static_assert(kTetChunk % kRotationBatchLanes == 0 && kTetChunk % kRotationBatchLanesAvx2 == 0 &&
+                  kTetChunk % kRotationBatchLanesAvx512 == 0,
               "chunks hold whole batches");
 
 }  // namespace
@@ -37,7 +39,7 @@ double CorotationalFem::evaluate_pass_parallel(std::span<const Vec3> x, const st
   tet_force_scratch_.resize(nt);
   // Per tet: rotation, energy, element forces (evaluate_tet_batch, the serial pass's own code; its
   // batches give the same bits as extract_rotation tet by tet, so chunk boundaries change nothing).
-  const size_t L = evaluation_batch_lanes();
+  const size_t L = evaluation_pass_lanes();
   parallel_for_chunks(executor_, nt, kTetChunk, [&](size_t begin, size_t end) {
     for (size_t t0 = begin; t0 < end; t0 += L) {
       evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, std::min(L, end - t0), &tet_force_scratch_[t0]);

@@ -108,7 +108,7 @@ PLIANT_AVX2_ONLY __attribute__((flatten)) void exact_query_stresses_avx2(
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) Fl[i][j] = f[i + 3 * j];
   }
-  rotation_batch_detail::iterate_rotation_lanes<4>(Fl, [&](int l) -> const Mat3& { return *F[l]; }, q, max_iterations,
+  rotation_batch_detail::iterate_rotation_lanes<4>(Fl, [&](int l) -> const Mat3& { return *F[l]; }, q, q, max_iterations,
                                                    tolerance, qx, qy, qz, qw, count);
   rotation_batch_detail::normalise_quaternion_lanes<4>(qx, qy, qz, qw);
   Lanes Rl[3][3];

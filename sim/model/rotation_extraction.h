@@ -131,57 +131,86 @@ inline constexpr int kRotationBatchLanes = 2;
 // with FMA contraction, -march=native, both may round differently). A lane that stopped keeps its
 // q, G and count; the batch runs until every lane stopped.
 namespace rotation_batch_detail {
-/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1). Spelled out
-/// per L: GCC does not apply a vector_size that depends on a template parameter.
+/// One SIMD register of L doubles (GCC vector type) and its lane mask (lane true: -1), with the lane
+/// operations the templates below use: comparisons, selects, any lane set, a square root, and the
+/// loads of q and F into lanes. Spelled out per L: GCC does not apply a vector_size that depends on
+/// a template parameter. LaneTypes<8> lives in rotation_batch_avx512.cpp, its operations AVX-512
+/// instructions (session 17: why they are functions there, not GCC's vector operators).
 template <int L>
 struct LaneTypes;
-template <>
-struct LaneTypes<2> {
-  typedef double Lanes __attribute__((vector_size(16)));
-  typedef long Mask __attribute__((vector_size(16)));
+/// The lane operations lane by lane (the 2- and 4-lane batches').
+template <int L, class LanesType, class MaskType>
+struct LaneByLaneOperations {
+  typedef LanesType Lanes;
+  typedef MaskType Mask;
+  /// True when some lane of m is set.
+  static bool any(const Mask& m) {
+    for (int l = 0; l < L; ++l) {
+      if (m[l] != 0) return true;
+    }
+    return false;
+  }
+  /// a < b and a <= b per lane (all bits set where true).
+  static Mask less(const Lanes& a, const Lanes& b) { return a < b; }
+  static Mask less_equal(const Lanes& a, const Lanes& b) { return a <= b; }
+  /// m ? a : b per lane.
+  static Lanes select(const Mask& m, const Lanes& a, const Lanes& b) { return m ? a : b; }
+  /// Lane l of qx, qy, qz, qw = the coefficients of q[l].
+  static void load_quaternions(const Quat* q, Lanes& qx, Lanes& qy, Lanes& qz, Lanes& qw) {
+    double x[L], y[L], z[L], w[L];
+    for (int l = 0; l < L; ++l) x[l] = q[l].x(), y[l] = q[l].y(), z[l] = q[l].z(), w[l] = q[l].w();
+    std::memcpy(&qx, x, sizeof(qx));
+    std::memcpy(&qy, y, sizeof(qy));
+    std::memcpy(&qz, z, sizeof(qz));
+    std::memcpy(&qw, w, sizeof(qw));
+  }
+  /// Lane l of Fl[i][j] = F[l](i, j).
+  static void load_matrices(const Mat3* F, Lanes (&Fl)[3][3]) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        double values[L];
+        for (int l = 0; l < L; ++l) values[l] = F[l](i, j);
+        std::memcpy(&Fl[i][j], values, sizeof(Lanes));
+      }
+    }
+  }
+  /// s = sqrt(n) in the lanes where n > 0, 1 elsewhere (correctly rounded: the scalar's bits).
+  static void square_root_where_positive(const Lanes& n, Lanes& s) {
+    double values[L];
+    for (int l = 0; l < L; ++l) values[l] = n[l] > 0.0 ? std::sqrt(n[l]) : 1.0;
+    std::memcpy(&s, values, sizeof(s));
+  }
 };
+typedef double Lanes2 __attribute__((vector_size(16)));
+typedef long Mask2 __attribute__((vector_size(16)));
+typedef double Lanes4 __attribute__((vector_size(32)));
+typedef long Mask4 __attribute__((vector_size(32)));
 template <>
-struct LaneTypes<4> {
-  typedef double Lanes __attribute__((vector_size(32)));
-  typedef long Mask __attribute__((vector_size(32)));
-};
+struct LaneTypes<2> : LaneByLaneOperations<2, Lanes2, Mask2> {};
+template <>
+struct LaneTypes<4> : LaneByLaneOperations<4, Lanes4, Mask4> {};
 static_assert(sizeof(long) == sizeof(double), "masks as wide as the lanes");
 template <int L, class Mask>
 inline bool any(const Mask& m) {
-  for (int l = 0; l < L; ++l) {
-    if (m[l] != 0) return true;
-  }
-  return false;
-}
-
-/// v's lane l = value_of_lane(l). Through memcpy (element inserts into vector arrays trip GCC's
-/// maybe-uninitialized); written through a reference, not returned (a 32-byte vector returned by a
-/// helper compiled without AVX would change the ABI: -Wpsabi).
-template <int L, class ValueOfLane>
-inline void gather(typename LaneTypes<L>::Lanes& v, ValueOfLane value_of_lane) {
-  double values[L];
-  for (int l = 0; l < L; ++l) values[l] = value_of_lane(l);
-  std::memcpy(&v, values, sizeof(v));
+  return LaneTypes<L>::any(m);
 }
 
 /// extract_rotation's start and Newton iteration for L tets in lanes, from F's entries Fl[i][j]
 /// (lane l = tet l; F_of_lane(l) the same F as a matrix, read by a lane that takes the SVD start)
-/// and the warm starts q[l] (rewritten only by the SVD start): leaves each lane's unnormalised
+/// and the warm starts warm_starts[l] (a lane taking the SVD start writes its start into q[l]; q may
+/// be warm_starts; session 17: the pass's kernel reads the warm starts from one array and writes
+/// another, without a copy first): leaves each lane's unnormalised
 /// quaternion in qx, qy, qz, qw and its update count in count (session 14: shared by
 /// extract_rotations_lanes and the exact query's kernel, which computes F in the lanes itself).
 template <int L, class FOfLane>
-inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3], FOfLane F_of_lane, Quat* q,
-                                   int max_iterations, double tolerance, typename LaneTypes<L>::Lanes& qx,
+inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3], FOfLane F_of_lane,
+                                   const Quat* warm_starts, Quat* q, int max_iterations, double tolerance, typename LaneTypes<L>::Lanes& qx,
                                    typename LaneTypes<L>::Lanes& qy, typename LaneTypes<L>::Lanes& qz,
                                    typename LaneTypes<L>::Lanes& qw, typename LaneTypes<L>::Lanes& count) {
   using Lanes = typename LaneTypes<L>::Lanes;
   using Mask = typename LaneTypes<L>::Mask;
-  const auto gather = [](Lanes& v, auto value_of_lane) { rotation_batch_detail::gather<L>(v, value_of_lane); };
   Lanes G[3][3];  // G(i, j) per lane
-  gather(qx, [&](int l) { return q[l].x(); });
-  gather(qy, [&](int l) { return q[l].y(); });
-  gather(qz, [&](int l) { return q[l].z(); });
-  gather(qw, [&](int l) { return q[l].w(); });
+  LaneTypes<L>::load_quaternions(warm_starts, qx, qy, qz, qw);
   // rotation_iteration_start in the lanes: R = q.toRotationMatrix() (Eigen's expressions), G = R^T F.
   {
     const Lanes tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
@@ -195,9 +224,18 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
       for (int j = 0; j < 3; ++j) G[i][j] = (R[0][i] * Fl[0][j] + R[1][i] * Fl[1][j]) + R[2][i] * Fl[2][j];
     }
   }
-  for (int l = 0; l < L; ++l) {
-    // A warm start facing away (the SVD start) is rare: that lane runs the scalar start again.
-    if (G[0][0][l] + (G[1][1][l] + G[2][2][l]) <= 0.0 && F_of_lane(l).allFinite()) {
+  // Comparisons and selects through LaneTypes<L> (GCC's vector operators for 2 and 4 lanes; for 8,
+  // functions compiled for AVX-512 and inlined into the 8-lane kernel, see LaneTypes<8>).
+  using Ops = LaneTypes<L>;
+  const Lanes zero = {}, one = zero + 1.0;
+  const Mask all_lanes = Ops::less(zero, one), no_lanes = {};
+  // A warm start facing away (the SVD start) is rare: that lane runs the scalar start again (the
+  // lanes' trace is the scalar's a + (b + c), so the same lanes are found).
+  const Mask facing_away = Ops::less_equal(G[0][0] + (G[1][1] + G[2][2]), zero);
+  if (any<L>(facing_away)) {
+    for (int l = 0; l < L; ++l) {
+      if (facing_away[l] == 0 || !F_of_lane(l).allFinite()) continue;
+      q[l] = warm_starts[l];  // (the same quaternion where the caller passes q twice)
       const Mat3 start = rotation_iteration_start(F_of_lane(l), q[l]);
       for (int i = 0; i < 3; ++i) {
         for (int j = 0; j < 3; ++j) G[i][j][l] = start(i, j);
@@ -209,56 +247,58 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
     }
   }
   const double tolerance_sq = tolerance * tolerance;
-  const Lanes zero = {};
-  const Mask all_lanes = zero < zero + 1.0, no_lanes = {};
+  const Lanes tolerance_sq_lanes = zero + tolerance_sq;
   Mask active = all_lanes;
   count = zero;
-  for (int it = 0; it < max_iterations && any<L>(active); ++it) {
+  for (int it = 0; it < max_iterations; ++it) {  // (every lane active at it = 0; the break below after)
     const Lanes g0 = G[2][1] - G[1][2], g1 = G[0][2] - G[2][0], g2 = G[1][0] - G[0][1];
     const Lanes tr = G[0][0] + (G[1][1] + G[2][2]);  // Eigen's unrolled trace: a + (b + c)
-    const Lanes denom = (tr < 0.0 ? -tr : tr) + 1e-9;
+    const Lanes denom = Ops::select(Ops::less(tr, zero), -tr, tr) + 1e-9;
     const Lanes h00 = tr - G[0][0], h11 = tr - G[1][1], h22 = tr - G[2][2];
     const Lanes h01 = -0.5 * (G[0][1] + G[1][0]), h02 = -0.5 * (G[0][2] + G[2][0]), h12 = -0.5 * (G[1][2] + G[2][1]);
     const Lanes c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
     const Lanes m2 = h00 * h11 - h01 * h01, det = (h00 * c00 + h01 * c01) + h02 * c02;
     const Lanes floor = 1e-3 * denom;
-    const Mask positive_definite = (h00 > floor) & (m2 > floor * floor) & (det > floor * floor * floor);
+    const Mask positive_definite = Ops::less(floor, h00) & Ops::less(floor * floor, m2) &
+                                   Ops::less(floor * floor * floor, det);
     const Lanes c11 = h00 * h22 - h02 * h02, c12 = h02 * h01 - h00 * h12;
     // Lanes the scalar would not compute something for get harmless inputs (0, or 1 for a
     // divisor) instead: with FP traps on, the batch must not overflow where the scalar does not.
-    const Lanes inv_det = 1.0 / (positive_definite ? det : zero + 1.0);
-    const Lanes p0 = positive_definite ? g0 : zero, p1 = positive_definite ? g1 : zero,
-                p2 = positive_definite ? g2 : zero;
+    const Lanes inv_det = 1.0 / Ops::select(positive_definite, det, one);
+    const Lanes p0 = Ops::select(positive_definite, g0, zero), p1 = Ops::select(positive_definite, g1, zero),
+                p2 = Ops::select(positive_definite, g2, zero);
     const Lanes n0 = inv_det * ((c00 * p0 + c01 * p1) + c02 * p2);
     const Lanes n1 = inv_det * ((c01 * p0 + c11 * p1) + c12 * p2);
     const Lanes n2 = inv_det * ((c02 * p0 + c12 * p1) + m2 * p2);
-    const Mask newton_step = positive_definite & ((n0 * n0 + n1 * n1) + n2 * n2 < 1.0);
-    const Lanes t0 = newton_step ? n0 : g0 / denom, t1 = newton_step ? n1 : g1 / denom,
-                t2 = newton_step ? n2 : g2 / denom;
+    const Mask newton_step = positive_definite & Ops::less((n0 * n0 + n1 * n1) + n2 * n2, one);
+    const Lanes t0 = Ops::select(newton_step, n0, g0 / denom), t1 = Ops::select(newton_step, n1, g1 / denom),
+                t2 = Ops::select(newton_step, n2, g2 / denom);
     const Lanes angle_sq = (t0 * t0 + t1 * t1) + t2 * t2;
-    const Mask moves = active & (angle_sq >= tolerance_sq);  // the scalar's converged break otherwise
+    // the scalar's converged break where angle_sq < tolerance_sq or NaN
+    const Mask moves = active & Ops::less_equal(tolerance_sq_lanes, angle_sq);
     // q <- q * (u0, u1, u2, w), grouped as Eigen's SSE2 quaternion product (lanes that stay: by
     // (0, 0, 0, 2), discarded).
-    const Lanes u0 = moves ? t0 : zero, u1 = moves ? t1 : zero, u2 = moves ? t2 : zero;
-    const Lanes w = 2.0 + 0.5 * (moves ? angle_sq : zero);
+    const Lanes u0 = Ops::select(moves, t0, zero), u1 = Ops::select(moves, t1, zero), u2 = Ops::select(moves, t2, zero);
+    const Lanes w = 2.0 + 0.5 * Ops::select(moves, angle_sq, zero);
     const Lanes nx = (qw * u0 + qy * u2) - (qz * u1 - qx * w);
     const Lanes ny = (qw * u1 + qy * w) + (qz * u0 - qx * u2);
     const Lanes nz = (qw * u2 - qy * u0) + (qz * w + qx * u1);
     const Lanes nw = (qw * w - qy * u1) - (qz * u2 + qx * u0);
-    qx = moves ? nx : qx;
-    qy = moves ? ny : qy;
-    qz = moves ? nz : qz;
-    qw = moves ? nw : qw;
-    count = moves ? count + 1.0 : count;
+    qx = Ops::select(moves, nx, qx);
+    qy = Ops::select(moves, ny, qy);
+    qz = Ops::select(moves, nz, qz);
+    qw = Ops::select(moves, nw, qw);
+    count = Ops::select(moves, count + 1.0, count);
     const Mask at_cap = it + 1 == max_iterations ? all_lanes : no_lanes;
-    const Lanes newton_angle_sq = newton_step ? angle_sq : zero;  // < 1 where the scalar squares it
-    const Mask last = (newton_step & (newton_angle_sq * newton_angle_sq < tolerance_sq)) | at_cap;
+    const Lanes newton_angle_sq = Ops::select(newton_step, angle_sq, zero);  // < 1 where the scalar squares it
+    const Mask last = (newton_step & Ops::less(newton_angle_sq * newton_angle_sq, tolerance_sq_lanes)) | at_cap;
     active = moves & ~last;
     if (!any<L>(active)) break;
     // G <- n^2 Q^T G (extract_rotation's update) for the lanes that go on; the others by Q = 4 I
     // (u = 0, w = 2), discarded.
-    const Lanes v0 = active ? u0 : zero, v1 = active ? u1 : zero, v2 = active ? u2 : zero;
-    const Lanes wq = active ? w : zero + 2.0, aq = active ? angle_sq : zero;
+    const Lanes v0 = Ops::select(active, u0, zero), v1 = Ops::select(active, u1, zero),
+                v2 = Ops::select(active, u2, zero);
+    const Lanes wq = Ops::select(active, w, zero + 2.0), aq = Ops::select(active, angle_sq, zero);
     const Lanes d = wq * wq - aq;
     const Lanes Q[3][3] = {{d + 2.0 * v0 * v0, 2.0 * (v0 * v1 - wq * v2), 2.0 * (v0 * v2 + wq * v1)},
                            {2.0 * (v1 * v0 + wq * v2), d + 2.0 * v1 * v1, 2.0 * (v1 * v2 - wq * v0)},
@@ -268,7 +308,7 @@ inline void iterate_rotation_lanes(const typename LaneTypes<L>::Lanes (&Fl)[3][3
       for (int j = 0; j < 3; ++j) next[i][j] = (Q[0][i] * G[0][j] + Q[1][i] * G[1][j]) + Q[2][i] * G[2][j];
     }
     for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) G[i][j] = active ? next[i][j] : G[i][j];
+      for (int j = 0; j < 3; ++j) G[i][j] = Ops::select(active, next[i][j], G[i][j]);
     }
   }
 }
@@ -279,15 +319,15 @@ template <int L>
 inline void normalise_quaternion_lanes(typename LaneTypes<L>::Lanes& qx, typename LaneTypes<L>::Lanes& qy,
                                        typename LaneTypes<L>::Lanes& qz, typename LaneTypes<L>::Lanes& qw) {
   using Lanes = typename LaneTypes<L>::Lanes;
-  using Mask = typename LaneTypes<L>::Mask;
-  const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw);
-  const Mask positive = n > 0.0;
-  Lanes s;  // sqrt(n) where n > 0 (GCC's vector types have no sqrt; 1 elsewhere, unused)
-  gather<L>(s, [&](int l) { return n[l] > 0.0 ? std::sqrt(n[l]) : 1.0; });
-  qx = positive ? qx / s : qx;
-  qy = positive ? qy / s : qy;
-  qz = positive ? qz / s : qz;
-  qw = positive ? qw / s : qw;
+  using Ops = LaneTypes<L>;
+  const Lanes n = (qx * qx + qz * qz) + (qy * qy + qw * qw), zero = {};
+  const typename Ops::Mask positive = Ops::less(zero, n);
+  Lanes s;  // sqrt(n) where n > 0 (1 elsewhere, unused)
+  Ops::square_root_where_positive(n, s);
+  qx = Ops::select(positive, qx / s, qx);
+  qy = Ops::select(positive, qy / s, qy);
+  qz = Ops::select(positive, qz / s, qz);
+  qw = Ops::select(positive, qw / s, qw);
 }
 
 /// Rl[i][j] = R(i, j) of q.toRotationMatrix() per lane (Eigen's expressions) for a unit q.
@@ -314,15 +354,12 @@ template <int L>
 inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
                                     int* iterations = nullptr, Mat3* rotation_matrices = nullptr) {
   using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
-  const auto gather = [](Lanes& v, auto value_of_lane) { rotation_batch_detail::gather<L>(v, value_of_lane); };
   Lanes Fl[3][3];  // F(i, j) per lane
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) gather(Fl[i][j], [&](int l) { return F[l](i, j); });
-  }
+  rotation_batch_detail::LaneTypes<L>::load_matrices(F, Fl);
   Lanes qx, qy, qz, qw, count;
-  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, max_iterations,
+  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, q, max_iterations,
                                                    tolerance, qx, qy, qz, qw, count);
-  if (L == 4 || rotation_matrices != nullptr) {
+  if (L >= 4 || rotation_matrices != nullptr) {
     // Session 13: the normalisation in the lanes (the per-lane normalisation was ~23 instructions
     // per tet), and for the local queries' stress the rotation matrix too (its own
     // toRotationMatrix per tet was ~30).
@@ -354,6 +391,19 @@ inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, 
         double last_entries[L];  // R(2, 2) of each lane, one vector store and four scalar copies
         std::memcpy(last_entries, &Rl[2][2], sizeof(Lanes));
         for (int l = 0; l < L; ++l) rotation_matrices[l](2, 2) = last_entries[l];
+      }
+    } else if constexpr (L == 8) {
+      // Session 17: q out of the lanes by permutes, one 64-byte store per two quaternions
+      // (LaneTypes<8>, rotation_batch_avx512.cpp); R (the local queries', not asked for here) lane by lane.
+      rotation_batch_detail::LaneTypes<L>::store_quaternions(qx, qy, qz, qw, q);
+      if (rotation_matrices != nullptr) {
+        Lanes Rl[3][3];
+        rotation_entries(Rl);
+        for (int l = 0; l < L; ++l) {
+          for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) rotation_matrices[l](i, j) = Rl[i][j][l];
+          }
+        }
       }
     } else {
       Lanes Rl[3][3];

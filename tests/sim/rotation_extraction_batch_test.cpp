@@ -17,6 +17,7 @@
 
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
 #include "sim/model/rotation_extraction.h"
 
 namespace pliant {
@@ -140,6 +141,136 @@ TEST(RotationExtractionBatch, AvxLanesEqualTheScalarExtractionBitForBit) {
       [](const Mat3* F, Quat* q, int cap, double tolerance, int* iterations) {
         extract_rotations_batch_avx2(F, q, cap, tolerance, iterations);
       });
+}
+
+// Session 17: the same template in eight AVX-512 lanes (rotation_batch_avx512.h, compiled without
+// contraction): every lane the scalar's bits and count, as the four AVX2 lanes'.
+TEST(RotationExtractionBatch, Avx512LanesEqualTheScalarExtractionBitForBit) {
+  if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
+  expect_every_lane_equals_the_scalar<kRotationBatchLanesAvx512>(
+      [](const Mat3* F, Quat* q, int cap, double tolerance, int* iterations) {
+        extract_rotations_batch_avx512(F, q, cap, tolerance, iterations);
+      });
+}
+
+// Eight lanes run until the slowest stops: one lane that needs many iterations (a far warm start on a
+// large stretch, or an inverted element) among seven that stop after one or two must not move the
+// seven once they stopped, whichever lane is the slow one; and a batch stopped at the iteration cap
+// leaves every lane at the scalar's result for that cap.
+TEST(RotationExtractionBatch, Avx512LanesThatStoppedStayWhileOneLaneIterates) {
+  if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
+  constexpr int L = kRotationBatchLanesAvx512;
+  std::mt19937_64 rng(20261128);
+  int slow_iterations = 0, fast_iterations = 0, fast_lanes = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    Mat3 F[L];
+    Quat batch[L], scalar[L];
+    int iterations[L];
+    const int slow = trial % L;
+    for (int l = 0; l < L; ++l) {
+      make_case(rng, l == slow ? (trial % 2 == 0 ? 1 : 2) : (trial % 3 == 0 ? 6 : 0), F[l], batch[l]);
+      scalar[l] = batch[l];
+    }
+    const int cap = trial % 5 == 0 ? 1 + trial / 5 % 4 : kElementRotationIterations;
+    extract_rotations_batch_avx512(F, batch, cap, kElementRotationTolerance, iterations);
+    for (int l = 0; l < L; ++l) {
+      const int expected = extract_rotation(F[l], scalar[l], cap, kElementRotationTolerance);
+#ifdef __FMA__
+      ASSERT_LT((batch[l].coeffs() - scalar[l].coeffs()).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+      continue;
+#endif
+      ASSERT_TRUE(same_bits(batch[l], scalar[l])) << "trial " << trial << " lane " << l << " slow lane " << slow;
+      ASSERT_EQ(iterations[l], expected) << "trial " << trial << " lane " << l;
+      if (cap != kElementRotationIterations) continue;
+      if (l == slow) {
+        slow_iterations += iterations[l];
+      } else {
+        fast_iterations += iterations[l];
+        ++fast_lanes;
+      }
+    }
+  }
+  // The mix is what the test is about: the slow lanes iterate several times longer than the others.
+  EXPECT_GT(slow_iterations * 7, 2 * fast_iterations);
+  EXPECT_GT(fast_lanes, 0);
+}
+
+// Session 17: the evaluation pass's 8-lane kernel (evaluate_tets_avx512) computes F from the
+// positions, the rotation and the element forces in the same lanes: against the scalar pass's
+// operations per tet (CorotationalFem::deformation_gradient's Ds * Dm^-1, extract_rotation from the
+// warm start, evaluate_tet_batch's energy and H = (-V P) Dm^-T), bit for bit. Each tet's F is one of
+// the cases above through a random full rest shape (volumes and Lame parameters over four decades),
+// its four vertices numbered at random in a shared position array.
+TEST(RotationExtractionBatch, Avx512PassKernelEqualsTheScalarPassExpressionsBitForBit) {
+  if (!rotation_batch_avx512_available()) GTEST_SKIP() << "no AVX-512 on this CPU or build";
+  constexpr int L = kRotationBatchLanesAvx512;
+  std::mt19937_64 rng(20261129);
+  std::uniform_int_distribution<int> kinds(0, 6);
+  std::uniform_real_distribution<double> decade(-2.0, 2.0), coordinate(-0.05, 0.05);
+  int compared = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    std::vector<int> numbers(4 * L);
+    for (int v = 0; v < 4 * L; ++v) numbers[static_cast<size_t>(v)] = v;
+    std::shuffle(numbers.begin(), numbers.end(), rng);
+    TetIndices tets[L];
+    std::vector<Vec3> x(4 * L);
+    Mat3 Dm_inv[L], H[L];
+    Quat batch[L], warm[L];
+    double volume[L], energy[L];
+    const int uniform = trial % 3 == 0 ? kinds(rng) : -1;
+    for (int l = 0; l < L; ++l) {
+      Mat3 target;
+      make_case(rng, uniform >= 0 ? uniform : kinds(rng), target, warm[l]);
+      batch[l] = warm[l];
+      const Mat3 rest_shape = 0.02 * (Mat3::Identity() + random_matrix(rng, 0.3));
+      Dm_inv[l] = rest_shape.inverse();
+      const Mat3 Ds = target * rest_shape;
+      const Vec3 x0(coordinate(rng), coordinate(rng), coordinate(rng));
+      for (size_t k = 0; k < 4; ++k) {
+        const int v = numbers[static_cast<size_t>(4 * l) + k];
+        tets[l][k] = v;
+        x[static_cast<size_t>(v)] = k == 0 ? x0 : Vec3(x0 + Ds.col(static_cast<int>(k) - 1));
+      }
+      volume[l] = std::pow(10.0, decade(rng) - 6.0);
+    }
+    const double mu = 3e4 * std::pow(10.0, decade(rng)), lambda = 1e5 * std::pow(10.0, decade(rng));
+    const int cap = trial % 10 == 0 ? 1 + trial / 10 % 3 : kElementRotationIterations;
+    // Warm starts read from one array and the rotations written to another (the energy query's pass),
+    // or both the same array (linearise's), alternately.
+    Quat out[L];
+    Quat* const rotations = trial % 2 == 0 ? batch : out;
+    evaluate_tets_avx512(x.data()->data(), tets, Dm_inv, volume, mu, lambda, cap, kElementRotationTolerance, batch,
+                         rotations, energy, H);
+    if (rotations == out) {
+      for (int l = 0; l < L; ++l) ASSERT_TRUE(same_bits(batch[l], warm[l])) << "warm start " << l << " rewritten";
+    }
+    for (int l = 0; l < L; ++l) {
+      const Vec3& x0 = x[static_cast<size_t>(tets[l][0])];
+      Mat3 Ds;  // CorotationalFem::deformation_gradient's expressions
+      for (int k = 0; k < 3; ++k) Ds.col(k) = x[static_cast<size_t>(tets[l][static_cast<size_t>(k) + 1])] - x0;
+      const Mat3 F = Ds * Dm_inv[l];
+      Quat scalar = warm[l];
+      extract_rotation(F, scalar, cap, kElementRotationTolerance);
+      const Mat3 R = scalar.toRotationMatrix();  // evaluate_tet_batch's expressions
+      const double trace = R.cwiseProduct(F).sum() - 3.0;
+      const Mat3 FmR = F - R;
+      const double expected_energy = volume[l] * (mu * FmR.squaredNorm() + 0.5 * lambda * trace * trace);
+      const Mat3 P = 2.0 * mu * FmR + lambda * trace * R;
+      const Mat3 expected_H = -volume[l] * P * Dm_inv[l].transpose();
+#ifdef __FMA__
+      ASSERT_LT((H[l] - expected_H).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + expected_H.cwiseAbs().maxCoeff()));
+      ++compared;
+      continue;
+#endif
+      ASSERT_TRUE(same_bits(rotations[l], scalar)) << "trial " << trial << " lane " << l;
+      ASSERT_EQ(std::memcmp(&energy[l], &expected_energy, sizeof(double)), 0)
+          << "trial " << trial << " lane " << l << ": " << energy[l] << " vs " << expected_energy;
+      ASSERT_EQ(std::memcmp(H[l].data(), expected_H.data(), sizeof(Mat3)), 0)
+          << "trial " << trial << " lane " << l << ":\n" << H[l] << "\nvs\n" << expected_H;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 20000 * L);
 }
 
 // Session 13: the local queries take R from the extraction's lanes (normalised and built there)
