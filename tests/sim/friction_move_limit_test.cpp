@@ -172,6 +172,22 @@ VertexContact contact_in_face(const Body& body, int vertex, const Body& partner,
   return contact;
 }
 
+/// A top-face vertex of `lower` under the instrument's bottom face (z = 0), away from its edges, and
+/// its contact against that face (pointing down, the bodies' indices set); -1 and no triangle if none.
+std::pair<int, VertexContact> top_vertex_under_instrument(const Body& lower, const Body& instrument, const Scene& scene) {
+  int top = -1;
+  for (int v = 0; v < lower.vertex_count() && top < 0; ++v) {
+    const Vec3& x = lower.positions[static_cast<size_t>(v)];
+    if (std::abs(x.z()) < 1e-12 && std::abs(x.x()) < 0.012 && std::abs(x.y()) < 0.012) top = v;
+  }
+  if (top < 0) return {top, VertexContact{}};
+  VertexContact contact = contact_in_face(lower, top, instrument, scene.start.z() - 0.5 * kUpperHeight);
+  contact.body = static_cast<int>(scene.lower.index);
+  contact.penetrated_body = static_cast<int>(scene.upper.index);
+  contact.penetration_direction = Vec3(0, 0, -1);
+  return {top, contact};
+}
+
 /// Kinetic energy of a body (J).
 double kinetic(const Body& b) {
   double e = 0.0;
@@ -281,18 +297,9 @@ TEST(FrictionMoveLimit, PreStressedStickReturnsWholeToWhereItWasStuck) {
   const Scene scene = build_scene(c, world);
   Body& lower = world.body(scene.lower);
   const Body& instrument = world.body(scene.upper);
-  // A top-face vertex under the instrument's bottom face (z = 0), away from its edges.
-  int top = -1;
-  for (int v = 0; v < lower.vertex_count() && top < 0; ++v) {
-    const Vec3& x = lower.positions[static_cast<size_t>(v)];
-    if (std::abs(x.z()) < 1e-12 && std::abs(x.x()) < 0.012 && std::abs(x.y()) < 0.012) top = v;
-  }
+  auto [top, contact] = top_vertex_under_instrument(lower, instrument, scene);
   ASSERT_GE(top, 0);
-  VertexContact contact = contact_in_face(lower, top, instrument, scene.start.z() - 0.5 * kUpperHeight);
-  contact.body = static_cast<int>(scene.lower.index);
-  contact.penetrated_body = static_cast<int>(scene.upper.index);
   ASSERT_GE(contact.contact_triangle, 0);
-  contact.penetration_direction = Vec3(0, 0, -1);
 
   const double dt = c.dt, X = 2e-4;  // s, m
   const Vec3 rest = lower.positions[static_cast<size_t>(top)];
@@ -389,17 +396,9 @@ TEST(FrictionMoveLimit, EnergyFlowChargeKeepsSqrtTwoOverOmegaDtOfAQuasiStaticRet
     const Scene scene = build_scene(c, world);
     Body& lower = world.body(scene.lower);
     const Body& instrument = world.body(scene.upper);
-    int top = -1;
-    for (int v = 0; v < lower.vertex_count() && top < 0; ++v) {
-      const Vec3& x = lower.positions[static_cast<size_t>(v)];
-      if (std::abs(x.z()) < 1e-12 && std::abs(x.x()) < 0.012 && std::abs(x.y()) < 0.012) top = v;
-    }
+    auto [top, contact] = top_vertex_under_instrument(lower, instrument, scene);
     ASSERT_GE(top, 0);
-    VertexContact contact = contact_in_face(lower, top, instrument, scene.start.z() - 0.5 * kUpperHeight);
-    contact.body = static_cast<int>(scene.lower.index);
-    contact.penetrated_body = static_cast<int>(scene.upper.index);
     ASSERT_GE(contact.contact_triangle, 0);
-    contact.penetration_direction = Vec3(0, 0, -1);
     const double dt = c.dt, X = 2e-4;  // s, m
     for (Vec3& x : lower.positions) x.z() = -kLowerHeight + height * (x.z() + kLowerHeight);  // base at -H
     const Vec3 rest = lower.positions[static_cast<size_t>(top)];
