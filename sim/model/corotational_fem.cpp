@@ -65,6 +65,26 @@ inline int local_index(const TetIndices& tet, int v) {
   return -1;
 }
 
+/// The system's diagonal blocks of rows [0, count): P holds D_i on entry and D_i^-1 on return
+/// (zero where the row is fixed or det D_i <= 0); diagonal gets D_i (the identity where fixed).
+/// Returns SSOR's test: every unfixed D_i has det > 0 and positive leading minors. Four rows per
+/// call in lanes where `kernels` and the CPU has them (the scalar's bits).
+inline bool invert_diagonal_rows(Mat3* P, const char* fixed, size_t count, bool kernels, Mat3* diagonal) {
+  if (kernels && diagonal_kernels_on_this_cpu()) return invert_diagonal_blocks_avx2(P, fixed, count, diagonal, P);
+  bool pass = true;
+  for (size_t i = 0; i < count; ++i) {
+    const Mat3 Di = P[i];
+    const double det = Di.determinant();
+    const bool is_fixed = fixed[i] != 0;
+    pass = pass && (is_fixed || (det > 0.0 && Di(0, 0) > 0.0 && Di(0, 0) * Di(1, 1) > Di(0, 1) * Di(1, 0)));
+    diagonal[i] = is_fixed ? Mat3::Identity() : Di;
+    P[i] = (is_fixed || !(det > 0.0)) ? Mat3::Zero() : Mat3(Di.inverse());
+  }
+  return pass;
+}
+
+inline bool same_double_bits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
+
 }  // namespace
 
 CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, const ModelSettings& settings,
@@ -243,6 +263,7 @@ inline void add_tet_block(const RotatedGradients& g, size_t a, size_t b, double 
 
 void CorotationalFem::assemble_tet(size_t t, const Mat3& Rg, double sign) {
   step_blocks_valid_ = false;  // the blocks no longer follow block_gradients_
+  block_changes_tracked_ = false;
   const RotatedGradients g(Rg);
   const double Vmu = sign * volume_[t] * mu_, Vlambda = sign * volume_[t] * lambda_;
   const auto& slots = tet_blocks_[t];
@@ -300,6 +321,7 @@ void CorotationalFem::assemble_row(size_t i, const Mat3* gradients, const char* 
 }
 
 void CorotationalFem::assemble_all_rows(const Mat3* gradients) {
+  block_changes_tracked_ = false;  // every block written
   if (vector_kernels_) {  // each block's terms in the rows' order, ascending tet (stiffness_row_kernels.h)
     const StiffnessRowSystem sys{blocks_.data()->data(), gradients->data(), volume_.data(), tet_blocks_.data()->data(),
                                  &corners_.data()->tet, mu_, lambda_, tet_block_lists_.data()};
@@ -333,6 +355,7 @@ void CorotationalFem::refresh_rotated_gradients() const {
 void CorotationalFem::assemble_stiffness() {
   refresh_rotated_gradients();
   const auto n = static_cast<size_t>(mesh_->vertex_count());
+  block_changes_tracked_ = false;  // every block written
   if (runs_parallel(executor_)) {
     assemble_rows_parallel({}, rotated_gradients_.data());
   } else {
@@ -360,6 +383,7 @@ void CorotationalFem::assemble_step_stiffness() {
     refresh_rotated_gradients();
     block_rotations_ = rotations_;
     block_gradients_ = rotated_gradients_;
+    block_changes_tracked_ = false;  // every block written
     if (runs_parallel(executor_)) {
       assemble_rows_parallel({}, block_gradients_.data());
     } else {
@@ -394,6 +418,13 @@ void CorotationalFem::assemble_step_stiffness() {
       if (row_dirty_[i] != 0) dirty_rows_.push_back(static_cast<int>(i));
     }
     if (!dirty_rows_.empty()) assemble_rows_parallel(dirty_rows_, block_gradients_.data());
+    // The rows summed whole: every block of theirs counts as written (session 17).
+    for (int i : dirty_rows_) {
+      changed_rows_.push_back(i);
+      for (int b = block_row_offsets_[static_cast<size_t>(i)]; b < block_row_offsets_[static_cast<size_t>(i) + 1]; ++b) {
+        changed_blocks_.push_back(b);
+      }
+    }
     reassembled_rows_ = dirty_rows_.size();
     stiffness_assembled_ = true;
     return;
@@ -425,11 +456,14 @@ void CorotationalFem::assemble_step_stiffness() {
       for (int v : mesh_->tets()[static_cast<size_t>(t)]) row_dirty_[static_cast<size_t>(v)] = 1;
     }
   }
+  // Setting the flags also records each dirty block once, the blocks written (session 17).
   const auto flag_moved_tets_blocks = [&](char flag) {
     block_dirty_.resize(blocks_.size(), 0);
     for (int t : moved_tets_) {
       for (int slot : tet_blocks_[static_cast<size_t>(t)]) {
-        if (slot >= 0) block_dirty_[static_cast<size_t>(slot)] = flag;
+        if (slot < 0) continue;
+        if (flag != 0 && block_dirty_[static_cast<size_t>(slot)] == 0) changed_blocks_.push_back(slot);
+        block_dirty_[static_cast<size_t>(slot)] = flag;
       }
     }
   };
@@ -444,6 +478,7 @@ void CorotationalFem::assemble_step_stiffness() {
     for (size_t i = 0; i < n; ++i) {
       if (row_dirty_[i] == 0) continue;
       assemble_row(i, block_gradients_.data(), block_dirty_.data());
+      changed_rows_.push_back(static_cast<int>(i));  // a moved tet at i wrote K'_ii
       ++rows;
     }
   }
@@ -944,6 +979,7 @@ void CorotationalFem::set_fused_sweeps(bool on) { fused_sweeps_ = on && fused_sw
 
 void CorotationalFem::set_vector_kernels(bool on) {
   vector_kernels_ = on && stiffness_row_kernels_available() && rotation_batch_avx2_available();
+  system_valid_ = false;  // the D_i^-1 again from one code path (the kernel's bits equal the scalar's anyway)
 }
 
 void CorotationalFem::set_avx512_lanes(bool on) { avx512_lanes_ = on && rotation_batch_avx512_available(); }
@@ -951,7 +987,12 @@ void CorotationalFem::set_avx512_lanes(bool on) { avx512_lanes_ = on && rotation
 void CorotationalFem::build_lower_pattern() const {
   if (block_row_offsets_.empty()) return;  // no assembled K'
   const size_t n = block_row_offsets_.size() - 1;
-  if (lower_.offsets.size() != n + 1) lower_ = lower_triangle_pattern(block_row_offsets_.data(), block_cols_.data(), n);
+  if (lower_.offsets.size() == n + 1) return;
+  lower_ = lower_triangle_pattern(block_row_offsets_.data(), block_cols_.data(), n);
+  lower_entry_of_block_.assign(block_cols_.size(), -1);
+  for (size_t k = 0; k < lower_.upper_blocks.size(); ++k) {
+    lower_entry_of_block_[static_cast<size_t>(lower_.upper_blocks[k])] = static_cast<int>(k);
+  }
 }
 
 // Preconditioned CG with the symmetric block Gauss-Seidel preconditioner M = (D + L) D^-1 (D + L^T)
@@ -996,9 +1037,28 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   int it = 0;
   if (fused_sweeps_ && !coarse) {  // the forward sweep gathers from the transposed blocks (session 13, the same bits)
     build_lower_pattern();
-    lower_transposed_.resize(9 * lower_.rows.size() + 4);
-    transpose_lower_blocks(sweeps.blocks, lower_.upper_blocks.data(), lower_.rows.data(), sweeps.fixed,
-                           lower_.rows.size(), lower_transposed_.data());
+    if (incremental_system_ && lower_transposed_valid_ && block_changes_tracked_ && system_fixed_unchanged_) {
+      // Session 17: only the blocks written since the last advance, transposed by plain copies (the
+      // kernel's permutes copy too: the same bits); the rest are the bits they were.
+      for (int b : changed_blocks_) {
+        const int k = lower_entry_of_block_[static_cast<size_t>(b)];
+        if (k < 0) continue;  // a diagonal block
+        double* out = lower_transposed_.data() + 9 * static_cast<size_t>(k);
+        if (fixed[static_cast<size_t>(lower_.rows[static_cast<size_t>(k)])] != 0) {
+          std::fill(out, out + 9, 0.0);
+          continue;
+        }
+        const double* B = sweeps.blocks + 9 * static_cast<size_t>(b);
+        for (size_t r = 0; r < 3; ++r) {
+          for (size_t c = 0; c < 3; ++c) out[r + 3 * c] = B[c + 3 * r];
+        }
+      }
+    } else {
+      lower_transposed_.resize(9 * lower_.rows.size() + 4);
+      transpose_lower_blocks(sweeps.blocks, lower_.upper_blocks.data(), lower_.rows.data(), sweeps.fixed,
+                             lower_.rows.size(), lower_transposed_.data());
+    }
+    lower_transposed_refreshed_ = true;
   }
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
@@ -1050,6 +1110,68 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   return {it, residual};
 }
 
+bool CorotationalFem::build_diagonal_group(size_t g, double mass_scale, double stiffness_scale,
+                                           const IntegrationInput& in) {
+  const size_t n = preconditioner_.size(), first = 4 * g, count = std::min<size_t>(4, n - first);
+  for (size_t i = first; i < first + count; ++i) {
+    preconditioner_[i] = Mat3::Identity() * (mass_scale * in.masses[i]);
+    preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(diagonal_blocks_[i])];
+  }
+  return invert_diagonal_rows(preconditioner_.data() + first, in.fixed.data() + first, count, vector_kernels_,
+                              diagonal_system_blocks_.data() + first);
+}
+
+// Session 17: D_i = (1 + h alpha) m_i I + h (beta + h) K'_ii and D_i^-1 are functions of row i's
+// mass, fixed flag, the two scales and K'_ii alone, and the kernel's lanes are independent (a group
+// of four computed alone is the bits the whole array's call gives it). With K' reuse most K'_ii keep
+// their bits between steps, so when the key is the same only the groups around the rows whose
+// K'_ii was written (changed_rows_) are computed again; the SSOR test is kept per group.
+bool CorotationalFem::build_diagonal_system(double mass_scale, double stiffness_scale, const IntegrationInput& in) {
+  const size_t n = preconditioner_.size(), groups = (n + 3) / 4;
+  system_fixed_unchanged_ =
+      system_fixed_.size() == n && std::equal(in.fixed.begin(), in.fixed.end(), system_fixed_.begin());
+  const bool same_key = system_fixed_unchanged_ && same_double_bits(mass_scale, system_mass_scale_) &&
+                        same_double_bits(stiffness_scale, system_stiffness_scale_) && system_masses_.size() == n &&
+                        std::memcmp(in.masses.data(), system_masses_.data(), n * sizeof(double)) == 0;
+  if (incremental_system_ && system_valid_ && block_changes_tracked_ && same_key) {
+    size_t last = groups, rows = 0;
+    for (int i : changed_rows_) {
+      const size_t g = static_cast<size_t>(i) / 4;
+      if (g == last) continue;  // ascending: the group's rows done already
+      last = g;
+      const char pass = build_diagonal_group(g, mass_scale, stiffness_scale, in) ? 1 : 0;
+      if (pass != system_group_pass_[g]) {
+        system_failing_groups_ = pass != 0 ? system_failing_groups_ - 1 : system_failing_groups_ + 1;
+        system_group_pass_[g] = pass;
+      }
+      rows += std::min<size_t>(4, n - 4 * g);
+    }
+    rebuilt_system_rows_ = rows;
+    return system_failing_groups_ == 0;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    preconditioner_[i] = Mat3::Identity() * (mass_scale * in.masses[i]);
+    preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(diagonal_blocks_[i])];
+  }
+  const bool pass = invert_diagonal_rows(preconditioner_.data(), in.fixed.data(), n, vector_kernels_,
+                                         diagonal_system_blocks_.data());
+  system_group_pass_.assign(groups, 1);
+  system_failing_groups_ = 0;
+  if (!pass) {  // some group failed: which (each group again, the same bits)
+    for (size_t g = 0; g < groups; ++g) {
+      system_group_pass_[g] = build_diagonal_group(g, mass_scale, stiffness_scale, in) ? 1 : 0;
+      system_failing_groups_ += system_group_pass_[g] != 0 ? 0 : 1;
+    }
+  }
+  system_mass_scale_ = mass_scale;
+  system_stiffness_scale_ = stiffness_scale;
+  system_masses_.assign(in.masses.begin(), in.masses.end());
+  system_fixed_.assign(in.fixed.begin(), in.fixed.end());
+  system_valid_ = true;
+  rebuilt_system_rows_ = n;
+  return pass;
+}
+
 IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) {
   IntegrationResult result;
   const double h = in.dt;
@@ -1093,46 +1215,32 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   }
 
   // Block-Jacobi preconditioner: inverse 3x3 diagonal blocks of the system matrix.
-  for (size_t i = 0; i < n; ++i) preconditioner_[i] = Mat3::Identity() * (mass_scale * in.masses[i]);
-  const auto nt = static_cast<size_t>(mesh_->tet_count());
-  if (product_ == StiffnessProduct::assembled) {
-    for (size_t i = 0; i < n; ++i) {
-      preconditioner_[i] += stiffness_scale * blocks_[static_cast<size_t>(diagonal_blocks_[i])];
-    }
-  }
-  if (product_ == StiffnessProduct::matrix_free) refresh_rotated_gradients();
-  for (size_t t = 0; t < nt && product_ == StiffnessProduct::matrix_free; ++t) {
-    const Mat3& Rg = rotated_gradients_[t];
-    const auto& tet = mesh_->tets()[t];
-    const double c = stiffness_scale * volume_[t];
-    for (size_t i = 0; i < 4; ++i) {
-      const Vec3 r = i == 0 ? Vec3(-(Rg.col(0) + Rg.col(1) + Rg.col(2))) : Vec3(Rg.col(static_cast<int>(i) - 1));
-      Mat3& B = preconditioner_[static_cast<size_t>(tet[i])];
-      B.noalias() += c * (mu_ + lambda_) * r * r.transpose();
-      B.diagonal().array() += c * mu_ * r.squaredNorm();
-    }
-  }
   // SSOR needs every diagonal block positive definite (a massless or degenerate vertex falls back
   // to block-Jacobi, whose zero block drops that vertex from the preconditioner).
   bool ssor = product_ == StiffnessProduct::assembled && preconditioner_kind_ == Preconditioner::ssor;
-  if (vector_kernels_ && diagonal_kernels_on_this_cpu()) {  // the same bits, four blocks per call
-    ssor = invert_diagonal_blocks_avx2(preconditioner_.data(), in.fixed.data(), n, diagonal_system_blocks_.data(),
-                                       preconditioner_.data()) &&
-           ssor;
+  if (product_ == StiffnessProduct::assembled) {
+    ssor = build_diagonal_system(mass_scale, stiffness_scale, in) && ssor;
   } else {
-    for (size_t i = 0; i < n; ++i) {
-      const Mat3 Di = preconditioner_[i];
-      const double det = Di.determinant();
-      const bool fixed = in.fixed[i] != 0;
-      ssor = ssor && (fixed || (det > 0.0 && Di(0, 0) > 0.0 && Di(0, 0) * Di(1, 1) > Di(0, 1) * Di(1, 0)));
-      diagonal_system_blocks_[i] = fixed ? Mat3::Identity() : Di;
-      preconditioner_[i] = (fixed || !(det > 0.0)) ? Mat3::Zero() : Mat3(Di.inverse());
+    for (size_t i = 0; i < n; ++i) preconditioner_[i] = Mat3::Identity() * (mass_scale * in.masses[i]);
+    refresh_rotated_gradients();
+    const auto nt = static_cast<size_t>(mesh_->tet_count());
+    for (size_t t = 0; t < nt; ++t) {
+      const Mat3& Rg = rotated_gradients_[t];
+      const auto& tet = mesh_->tets()[t];
+      const double c = stiffness_scale * volume_[t];
+      for (size_t i = 0; i < 4; ++i) {
+        const Vec3 r = i == 0 ? Vec3(-(Rg.col(0) + Rg.col(1) + Rg.col(2))) : Vec3(Rg.col(static_cast<int>(i) - 1));
+        Mat3& B = preconditioner_[static_cast<size_t>(tet[i])];
+        B.noalias() += c * (mu_ + lambda_) * r * r.transpose();
+        B.diagonal().array() += c * mu_ * r.squaredNorm();
+      }
     }
+    invert_diagonal_rows(preconditioner_.data(), in.fixed.data(), n, vector_kernels_, diagonal_system_blocks_.data());
   }
-  if (ssor) {
-    for (size_t i = 0; i < n; ++i) {
-      if (in.fixed[i] != 0) preconditioner_[i] = Mat3::Identity();
-    }
+  // A fixed row's inverse: the identity for SSOR, zero for block-Jacobi (where the inversion left
+  // it zero; the incremental update may keep a row the last step set, so it is set every step).
+  for (size_t i = 0; i < n; ++i) {
+    if (in.fixed[i] != 0) preconditioner_[i] = ssor ? Mat3(Mat3::Identity()) : Mat3(Mat3::Zero());
   }
 
   // Preconditioned conjugate gradients on (M + h D + h^2 K') dv = rhs, warm-started from the last dv.
@@ -1201,6 +1309,14 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   // many vertices); the frozen-rotation query evaluates it at x_{n+1} itself. Until then the
   // rotations are x_n's (warm starts). K' is assembled by the next advance. A non-finite x_{n+1}
   // (a fault World will undo) is not kept.
+  if (product_ == StiffnessProduct::assembled) {
+    // The next advance updates what this one built only where K' changes from here on (session 17).
+    lower_transposed_valid_ = lower_transposed_refreshed_;
+    lower_transposed_refreshed_ = false;
+    changed_blocks_.clear();
+    changed_rows_.clear();
+    block_changes_tracked_ = true;
+  }
   state_valid_ = false;
   stiffness_assembled_ = false;
   state_deferred_ = finite;

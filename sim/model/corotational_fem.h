@@ -36,6 +36,10 @@
 //   the solve's matrix is R~ K R~^T with |R~ - R| <= the tolerance, so a step's v+ differs from the
 //   exact linearisation's by at most ~2 tolerance |v+| (tested). Tolerance 0 is the exact path, bit
 //   for bit the code before.
+// - Incremental system (session 17): the SSOR's D_i, D_i^-1 and transposed lower blocks are
+//   computed again only where K' blocks were written since the last advance (the reuse step records
+//   them; any other writer of K' makes the next advance rebuild all), while h, alpha, beta, the
+//   masses and the fixed flags keep their bits: the same bits as the full rebuild.
 #pragma once
 
 #include <array>
@@ -151,6 +155,18 @@ class CorotationalFem final : public DeformationModel {
   std::span<const Mat3> diagonal_system_blocks() const { return diagonal_system_blocks_; }
   /// Vertex rows of K' the last advance summed again (all of them without reuse).
   size_t reassembled_rows() const { return reassembled_rows_; }
+  /// Session 17: advance rebuilds the SSOR's per-step data (the diagonal system blocks D_i, their
+  /// inverses, the transposed lower blocks of the fused sweeps) only where K' changed since the last
+  /// advance, when h, alpha, beta, the masses and the fixed flags are the bits they were (on by
+  /// default; the same bits as the full rebuild). false: all of it rebuilt every step.
+  void set_incremental_system(bool on) {
+    incremental_system_ = on;
+    system_valid_ = false;
+  }
+  /// True when advance updates the SSOR's per-step data incrementally.
+  bool incremental_system() const { return incremental_system_; }
+  /// Diagonal system block rows (D_i, D_i^-1) the last advance computed (all of them on a full rebuild).
+  size_t rebuilt_system_rows() const { return rebuilt_system_rows_; }
   /// Element rotation (from the last evaluation of the linearisation state).
   Mat3 element_rotation(int tet) const { return rotations_[static_cast<size_t>(tet)].toRotationMatrix(); }
   /// Deformation gradient F = Ds Dm^-1 of a tet at positions x.
@@ -215,6 +231,15 @@ class CorotationalFem final : public DeformationModel {
   /// CG with block-Jacobi from the warm start in dv_ (its residual r_ and relative residual given).
   CgOutcome solve_jacobi(double residual, double rhs_norm, double mass_scale, double stiffness_scale,
                          std::span<const double> masses, std::span<const char> fixed);
+  /// advance's diagonal system blocks D_i = mass_scale m_i I + stiffness_scale K'_ii (identity at
+  /// fixed rows) and their inverses (zero at fixed rows and where det D_i <= 0), in
+  /// diagonal_system_blocks_ and preconditioner_, for the assembled K': every row, or only the
+  /// groups of four rows around the rows whose K'_ii changed since the last advance (session 17).
+  /// Returns SSOR's test: every unfixed D_i passes (det > 0 and its leading minors positive).
+  bool build_diagonal_system(double mass_scale, double stiffness_scale, const IntegrationInput& in);
+  /// D_i and D_i^-1 of rows 4 g .. 4 g + 3 (fewer in the last group), the full build's expressions
+  /// and kernel lanes (so the same bits); returns the group's SSOR test.
+  bool build_diagonal_group(size_t g, double mass_scale, double stiffness_scale, const IntegrationInput& in);
   /// CG with symmetric block Gauss-Seidel in Eisenstat's form (assembled K'; same inputs).
   CgOutcome solve_ssor(double residual, double rhs_norm, double stiffness_scale, std::span<const char> fixed);
   /// Filtered CG (Baraff & Witkin 1998, sec. 5.3) for advance with in.constraint_normals: each
@@ -376,6 +401,31 @@ class CorotationalFem final : public DeformationModel {
   std::vector<char> tet_moved_;                  ///< per tet: its rotation left the reuse tolerance
   std::vector<int> moved_tets_;                  ///< scratch: tets the serial reuse step rebuilds, ascending
   std::vector<char> block_dirty_;                ///< scratch: per block, one of its tets is in moved_tets_ (0 between steps)
+
+  // Incremental system update (session 17): with K' reuse most K' blocks keep their bits from one
+  // step to the next, and so do the D_i, D_i^-1 and transposed lower blocks made from them.
+  bool incremental_system_ = true;  ///< set_incremental_system
+  /// diagonal_system_blocks_ and preconditioner_ (up to the fixed rows' inverse, set each step) were
+  /// built by the last advance from its key below and blocks_ as they were then.
+  bool system_valid_ = false;
+  double system_mass_scale_ = 0.0, system_stiffness_scale_ = 0.0;  ///< the key: 1 + h alpha, h (beta + h)
+  std::vector<double> system_masses_;                               ///< the key: masses (kg)
+  std::vector<char> system_fixed_;                                  ///< the key: fixed flags
+  std::vector<char> system_group_pass_;  ///< per group of four rows: its SSOR test passed
+  size_t system_failing_groups_ = 0;     ///< groups whose SSOR test failed
+  size_t rebuilt_system_rows_ = 0;       ///< rebuilt_system_rows()
+  /// True while changed_blocks_ and changed_rows_ hold every block and diagonal row of K' written
+  /// since the end of the last advance (the K' reuse step records them; any other writer of blocks_
+  /// clears it).
+  bool block_changes_tracked_ = false;
+  std::vector<int> changed_blocks_;  ///< blocks_ written since the last advance (repeats allowed)
+  std::vector<int> changed_rows_;    ///< rows whose K'_ii was written since then, ascending per step
+  /// lower_transposed_ belongs to blocks_ as they were at the end of the last advance and to
+  /// system_fixed_ (it is refreshed by every advance that solves with the fused sweeps, else dropped).
+  bool lower_transposed_valid_ = false;
+  bool lower_transposed_refreshed_ = false;  ///< scratch of advance: solve_ssor refreshed it
+  bool system_fixed_unchanged_ = false;      ///< scratch of advance: in.fixed equals the last advance's
+  mutable std::vector<int> lower_entry_of_block_;  ///< per upper block, its entry in lower_ (-1: diagonal)
 };
 
 }  // namespace pliant
