@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "sim/model/corotational_fem.h"
-#include "sim/parallel/task_executor.h"
 #include "support/clamped_beam.h"
+#include "support/inline_two_thread_executor.h"
 
 namespace pliant {
 namespace {
@@ -156,15 +156,6 @@ TEST(CorotationalIncrementalSystem, EqualsTheFullRebuildBitForBit) {
   steps(46, 50);
   EXPECT_GE(none, 10u);
 }
-
-/// Claims two threads, so the model takes its threaded paths, but runs the chunks inline.
-class InlineTwoThreadExecutor : public TaskExecutor {
- public:
-  int thread_count() const override { return 2; }
-  void for_each_chunk(size_t count, size_t chunk, ChunkFunction body) override {
-    for (size_t k = (count + chunk - 1) / chunk; k-- > 0;) body(k * chunk, std::min((k + 1) * chunk, count));
-  }
-};
 
 // The threaded reuse step sums dirty rows whole: it records all their blocks as written.
 TEST(CorotationalIncrementalSystem, ThreadedReuseStepEqualsTheFullRebuildBitForBit) {

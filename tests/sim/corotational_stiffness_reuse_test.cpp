@@ -12,8 +12,8 @@
 #include <cstring>
 
 #include "sim/model/corotational_fem.h"
-#include "sim/parallel/task_executor.h"
 #include "support/clamped_beam.h"
+#include "support/inline_two_thread_executor.h"
 #include "support/vec_compare.h"
 
 namespace pliant {
@@ -104,16 +104,6 @@ TEST(CorotationalStiffnessReuse, StillBodySumsNoRowAgain) {
   EXPECT_EQ(model.reassembled_rows(), 0u);
   EXPECT_LT(field_norm(beam.v), 1e-12);
 }
-
-/// Claims two threads, so the model takes its threaded paths, but runs the chunks inline, last
-/// first. The threaded reuse step sums every dirty row whole (corotational_parallel.cpp).
-class InlineTwoThreadExecutor : public TaskExecutor {
- public:
-  int thread_count() const override { return 2; }
-  void for_each_chunk(size_t count, size_t chunk, ChunkFunction body) override {
-    for (size_t k = (count + chunk - 1) / chunk; k-- > 0;) body(k * chunk, std::min((k + 1) * chunk, count));
-  }
-};
 
 // Session 12: the serial reuse step sums again only the blocks a moved tet adds to, and leaves the
 // rest of a dirty row. Reference: the threaded reuse step, which sums each dirty row whole (the
