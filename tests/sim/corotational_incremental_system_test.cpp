@@ -18,15 +18,6 @@
 namespace pliant {
 namespace {
 
-// No gravity; the outer 15% is pushed sideways and down, so the tip swings (its tets rotate past
-// the reuse tolerance) while the part near the clamp barely rotates (its rows are reused).
-struct TipPushedBeam : ClampedBeam {
-  TipPushedBeam()
-      : ClampedBeam(20, [](const Vec3& rest, double m) {
-          return rest.x() > 0.35 ? Vec3(m * Vec3(0.0, 3.0, -6.0)) : Vec3::Zero();
-        }) {}
-};
-
 template <class T>
 bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;

@@ -19,15 +19,6 @@
 namespace pliant {
 namespace {
 
-// No gravity; only the outer 15% is pushed sideways and down, so the part near the clamp barely
-// rotates and the tip swings.
-struct TipPushedBeam : ClampedBeam {
-  TipPushedBeam()
-      : ClampedBeam(20, [](const Vec3& rest, double m) {
-          return rest.x() > 0.35 ? Vec3(m * Vec3(0.0, 3.0, -6.0)) : Vec3::Zero();
-        }) {}
-};
-
 ModelSettings precise() {
   ModelSettings s;
   s.accuracy.max_solver_iterations = 5000;

@@ -43,4 +43,14 @@ struct ClampedBeam {
   IntegrationInput input() const { return {masses, fixed, external, 5e-3}; }
 };
 
+/// The beam at 20 cells with no gravity and its outer 15% pushed sideways and down: the tip swings
+/// (its tets rotate past the K' reuse tolerance) while the part near the clamp barely rotates (its
+/// rows are reused), the workload of the K' reuse and incremental-system tests.
+struct TipPushedBeam : ClampedBeam {
+  TipPushedBeam()
+      : ClampedBeam(20, [](const Vec3& rest, double m) {
+          return rest.x() > 0.35 ? Vec3(m * Vec3(0.0, 3.0, -6.0)) : Vec3::Zero();
+        }) {}
+};
+
 }  // namespace pliant
