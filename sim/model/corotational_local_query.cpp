@@ -52,6 +52,7 @@
 #include "sim/model/corotational_fem.h"
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
 #include "sim/model/rotation_extraction.h"
 #include "sim/model/stiffness_product_kernels.h"
 #include "sim/model/tet_gradient_kernels.h"
@@ -150,22 +151,36 @@ void CorotationalFem::internal_forces_at(std::span<const Vec3> x, std::span<cons
   if (whole_batch_kernel) {
     // Every slot is a pending tet, in order (slot k = pending tet k), so batch i's stresses go to
     // slots i .. i + 3; F and R go straight to the nearby query's memory (remember_rotation).
-    constexpr size_t L = kRotationBatchLanesAvx2;
-    const size_t whole = query_pending_.size() / L * L;
-    Quat q[L];
-    Mat3 *F[L], *R[L];
-    for (size_t i = 0; i < whole; i += L) {
-      for (size_t l = 0; l < L; ++l) {
+    // Session 18: eight at a time in AVX-512 lanes where the evaluation pass has them, then four at a
+    // time; each lane is the scalar query's bits whatever batch it is in.
+    constexpr size_t L = kRotationBatchLanesAvx2, L8 = kRotationBatchLanesAvx512;
+    Quat q[L8];
+    Mat3 *F[L8], *R[L8];
+    const auto batch = [&](size_t i, size_t lanes) {
+      for (size_t l = 0; l < lanes; ++l) {
         const auto t = static_cast<size_t>(query_pending_[i + l]);
         q[l] = rotations_[t];  // warm start; the stored rotation is left as it is
         F[l] = &nearby_key_[t];
         R[l] = &nearby_rotation_[t];
         nearby_cached_[t] = 1;
       }
+    };
+    size_t i = 0;
+    if (avx512_lanes()) {
+      for (; i + L8 <= query_pending_.size(); i += L8) {
+        batch(i, L8);
+        exact_query_stresses_avx512(x.data()->data(), mesh_->tets().data(), rest_shape_inverse_.data(),
+                                    query_pending_.data() + i, q, mu_, lambda_, kElementRotationIterations,
+                                    kElementRotationTolerance, F, R, query_forces_.data() + i);
+      }
+    }
+    for (; i + L <= query_pending_.size(); i += L) {
+      batch(i, L);
       exact_query_stresses_avx2(x.data()->data(), mesh_->tets().data(), rest_shape_inverse_.data(),
                                 query_pending_.data() + i, q, mu_, lambda_, kElementRotationIterations,
                                 kElementRotationTolerance, F, R, query_forces_.data() + i);
     }
+    const size_t whole = i;
     // The last few: F into their slots, then the batched path below on them alone (a short batch
     // there, as before).
     for (size_t k = whole; k < query_pending_.size(); ++k) {
@@ -215,11 +230,13 @@ void CorotationalFem::exact_query_stresses_batched() {
   // Four lanes in AVX2 registers where the CPU has them (the full pass's extraction, session 11),
   // else kRotationBatchLanes. Each lane is the scalar extraction bit for bit whatever else shares
   // the batch, so a short last batch is filled up with copies of its last tet (results discarded).
-  const size_t L = evaluation_batch_lanes();
+  // Session 18: eight lanes in AVX-512 registers where the evaluation pass has them.
+  const size_t L = avx512_lanes() ? kRotationBatchLanesAvx512 : evaluation_batch_lanes();
   const size_t count = query_pending_.size();
-  Mat3 F[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
-  Quat q[std::max(kRotationBatchLanesAvx2, kRotationBatchLanes)];
-  Mat3 R[kRotationBatchLanesAvx2], P[kRotationBatchLanesAvx2];
+  constexpr size_t kMaxLanes = std::max({kRotationBatchLanesAvx512, kRotationBatchLanesAvx2, kRotationBatchLanes});
+  Mat3 F[kMaxLanes];
+  Quat q[kMaxLanes];
+  Mat3 R[kMaxLanes], P[kMaxLanes];
   const bool stress_kernels = vector_kernels_ && query_stress_kernels_available();
   // Session 12: in the exact query every slot is a pending tet, taken in order (slot k = pending
   // tet k), so whole batches need no gather of F nor a copy of P back into the slot.
@@ -251,7 +268,9 @@ void CorotationalFem::exact_query_stresses_batched() {
       F[l] = query_forces_[static_cast<size_t>(query_slot_[t])];
       q[l] = rotations_[t];  // warm start; the stored rotation is left as it is
     }
-    if (vector_kernels_) {
+    if (L == kRotationBatchLanesAvx512) {
+      extract_rotations_batch_avx512(F, q, kElementRotationIterations, kElementRotationTolerance);
+    } else if (vector_kernels_) {
       extract_rotations_batch_avx2(F, q, kElementRotationIterations, kElementRotationTolerance);
     } else {
       extract_rotations_batch(F, q, kElementRotationIterations, kElementRotationTolerance);

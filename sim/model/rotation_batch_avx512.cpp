@@ -162,14 +162,12 @@ PLIANT_AVX512_ONLY inline void entry_sum9(const Lanes8 (&e)[9], Lanes8& sum) {
 /// value in every lane (not 0 + value, which turns -0 into +0).
 PLIANT_AVX512_ONLY inline Lanes8 broadcast(double value) { return reinterpret_cast<Lanes8>(_mm512_set1_pd(value)); }
 
-}  // namespace
-
-PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const double* x, const TetIndices* tets,
-                                                                       const Mat3* rest_shape_inverse,
-                                                                       const double* volume, double mu, double lambda,
-                                                                       int max_iterations, double tolerance,
-                                                                       const Quat* warm_starts, Quat* q,
-                                                                       double* energy, Mat3* H) {
+/// F = Ds Dm^-1 of 8 tets in lanes, Fl[i][j] lane l = F(i, j) of tets[l] (8 packed index sets) with
+/// Dm^-1 = rest_shape_inverse[l] (8 packed matrices): CorotationalFem::deformation_gradient's bits, as
+/// deformation_gradients_avx2 computes it. b receives Dm^-1's entries, b[k][j] lane l = Dm^-1(k, j).
+PLIANT_AVX512_ONLY inline void deformation_gradient_lanes(const double* x, const TetIndices* tets,
+                                                          const Mat3* rest_shape_inverse, Lanes8 (&b)[3][3],
+                                                          Lanes8 (&Fl)[3][3]) {
   using Ops = rotation_batch_detail::LaneTypes<8>;
   using Lanes = Lanes8;
   // The vertices' xyz by gathers: tets[l][k] for l = 0..7 out of the 32 packed indices, times 3.
@@ -189,9 +187,8 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const doub
   // F = Ds Dm^-1 (CorotationalFem::deformation_gradient, as deformation_gradients_avx2 computes it):
   // Ds(i, k) = x_{k+1}(i) - x_0(i); F(i, j) = sum_k Ds(i, k) B(k, j) in Eigen's order, rows 0 and 1
   // (p0 + p1) + p2, row 2 p0 + (p1 + p2).
-  Lanes b[3][3];  // b[k][j] = Dm^-1(k, j)
   Ops::load_matrices(rest_shape_inverse, b);
-  Lanes ds[3][3], Fl[3][3];
+  Lanes ds[3][3];
   for (int i = 0; i < 3; ++i) {
     for (int k = 0; k < 3; ++k) ds[i][k] = corner[k + 1][i] - corner[0][i];
   }
@@ -201,6 +198,20 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const doub
       Fl[i][j] = i < 2 ? (p0 + p1) + p2 : p0 + (p1 + p2);
     }
   }
+}
+
+}  // namespace
+
+PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const double* x, const TetIndices* tets,
+                                                                       const Mat3* rest_shape_inverse,
+                                                                       const double* volume, double mu, double lambda,
+                                                                       int max_iterations, double tolerance,
+                                                                       const Quat* warm_starts, Quat* q,
+                                                                       double* energy, Mat3* H) {
+  using Ops = rotation_batch_detail::LaneTypes<8>;
+  using Lanes = Lanes8;
+  Lanes b[3][3], Fl[3][3];  // b[k][j] = Dm^-1(k, j)
+  deformation_gradient_lanes(x, tets, rest_shape_inverse, b, Fl);
   // The rotations (a lane taking the SVD start reads its F out of the lanes).
   const auto F_of_lane = [&](int l) {
     Mat3 F;
@@ -251,6 +262,48 @@ PLIANT_AVX512_ONLY __attribute__((flatten)) void evaluate_tets_avx512(const doub
   rotation_batch_detail::store_entries8(h, H);  // entries 0-7 transposed, one 64-byte store per tet
 }
 
+// exact_query_stresses_avx2's operations (query_stress_kernels.cpp) in 8 lanes: F as the evaluation
+// pass computes it, the extraction's iteration, R, then P = (2 mu) (F - R) + (lambda tr) R.
+PLIANT_AVX512_ONLY __attribute__((flatten)) void exact_query_stresses_avx512(
+    const double* x, const TetIndices* mesh_tets, const Mat3* rest_shape_inverse, const int* tets, Quat* q, double mu,
+    double lambda, int max_iterations, double tolerance, Mat3* const* F, Mat3* const* R, Mat3* P) {
+  using Lanes = Lanes8;
+  // The query's tets are scattered over the mesh: their index sets and Dm^-1 packed first.
+  TetIndices batch_tets[8];
+  Mat3 batch_rest_inverse[8];
+  for (int l = 0; l < 8; ++l) {
+    const auto t = static_cast<size_t>(tets[l]);
+    batch_tets[l] = mesh_tets[t];
+    batch_rest_inverse[l] = rest_shape_inverse[t];
+  }
+  Lanes b[3][3], Fl[3][3];
+  deformation_gradient_lanes(x, batch_tets, batch_rest_inverse, b, Fl);
+  Lanes f[9];
+  for (int k = 0; k < 9; ++k) f[k] = Fl[k % 3][k / 3];
+  Mat3 packed[8];
+  rotation_batch_detail::store_entries8(f, packed);
+  for (int l = 0; l < 8; ++l) *F[l] = packed[l];
+  // The extraction's iteration on these lanes (a lane taking the SVD start reads its stored F).
+  Lanes qx, qy, qz, qw, count;
+  rotation_batch_detail::iterate_rotation_lanes<8>(Fl, [&](int l) -> const Mat3& { return *F[l]; }, q, q,
+                                                   max_iterations, tolerance, qx, qy, qz, qw, count);
+  rotation_batch_detail::normalise_quaternion_lanes<8>(qx, qy, qz, qw);
+  Lanes Rl[3][3], r[9], e[9];
+  rotation_batch_detail::rotation_matrix_lanes<8>(qx, qy, qz, qw, Rl);
+  for (int k = 0; k < 9; ++k) r[k] = Rl[k % 3][k / 3];
+  rotation_batch_detail::store_entries8(r, packed);
+  for (int l = 0; l < 8; ++l) *R[l] = packed[l];
+  // P = (2 mu) (F - R) + (lambda tr) R, tr = sum of R .* F - 3 (first_piola_stress's operations).
+  for (int k = 0; k < 9; ++k) e[k] = r[k] * f[k];
+  Lanes trace;
+  entry_sum9(e, trace);
+  trace = trace - 3.0;
+  const Lanes two_mu = broadcast(2.0 * mu), lambda_trace = broadcast(lambda) * trace;
+  Lanes p[9];
+  for (int k = 0; k < 9; ++k) p[k] = two_mu * (f[k] - r[k]) + lambda_trace * r[k];
+  rotation_batch_detail::store_entries8(p, P);
+}
+
 #else
 
 bool rotation_batch_avx512_available() { return false; }
@@ -264,6 +317,9 @@ void extract_rotations_batch_avx512(const Mat3* F, Quat* q, int max_iterations, 
 
 void evaluate_tets_avx512(const double*, const TetIndices*, const Mat3*, const double*, double, double, int, double,
                           const Quat*, Quat*, double*, Mat3*) {}
+
+void exact_query_stresses_avx512(const double*, const TetIndices*, const Mat3*, const int*, Quat*, double, double, int,
+                                 double, Mat3* const*, Mat3* const*, Mat3*) {}
 
 #endif
 

@@ -33,4 +33,13 @@ void evaluate_tets_avx512(const double* x, const TetIndices* tets, const Mat3* r
                           double mu, double lambda, int max_iterations, double tolerance, const Quat* warm_starts,
                           Quat* q, double* energy, Mat3* H);
 
+/// The exact local query's stress of 8 tets in one kernel's lanes (session 18): exact_query_stresses_avx2
+/// (query_stress_kernels.h) for 8 tets, bit for bit its results per lane: F_l = Ds Dm^-1 of mesh tet
+/// tets[l] (positions x packed xyz) into *F[l], the rotation from F_l and the warm start q[l] (q is
+/// scratch) into *R[l] as toRotationMatrix(), and P[l] = (2 mu) (F_l - R_l) + (lambda tr) R_l,
+/// tr = sum of R .* F - 3 (P: 8 packed matrices). Only where rotation_batch_avx512_available().
+void exact_query_stresses_avx512(const double* x, const TetIndices* mesh_tets, const Mat3* rest_shape_inverse,
+                                 const int* tets, Quat* q, double mu, double lambda, int max_iterations,
+                                 double tolerance, Mat3* const* F, Mat3* const* R, Mat3* P);
+
 }  // namespace pliant

@@ -5,7 +5,10 @@
 // queries with the kernels switched off (set_vector_kernels(false), the code before): each lane is
 // the scalar code's operations in its order, so the forces must be the scalar path's bit for bit,
 // whatever the number of tets a query touches (short last batches are filled up with copies) and
-// wherever the warm start faces away (inverted tets: the SVD start). Skipped without AVX2.
+// wherever the warm start faces away (inverted tets: the SVD start). Skipped without AVX2. Session 18:
+// on a CPU with AVX-512 both queries take eight tets per batch (exact_query_stresses_avx512 and the
+// 8-lane extraction, rotation_batch_avx512.h) before the four-lane batches, so there the test
+// compares those against the scalar code too.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,6 +18,7 @@
 #include "sim/model/corotational_fem.h"
 #include "sim/model/query_stress_kernels.h"
 #include "sim/model/rotation_batch_avx2.h"
+#include "sim/model/rotation_batch_avx512.h"
 #include "sim/model/stiffness_product_kernels.h"
 #include "support/sagging_cantilever.h"
 
@@ -56,6 +60,8 @@ void expect_vector_queries_are_the_scalar_queries() {
   CorotationalFem vector(a.mesh, a.m, {}), scalar(b.mesh, b.m, {});
   scalar.set_vector_kernels(false);
   ASSERT_TRUE(vector.vector_kernels());
+  // The 8-lane batches run wherever the CPU has them (the model's default).
+  ASSERT_EQ(vector.avx512_lanes(), rotation_batch_avx512_available());
   std::mt19937 rng(11);
   for (int s = 0; s < 6; ++s) {
     a.step(vector);
