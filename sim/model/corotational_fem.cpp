@@ -10,6 +10,7 @@
 #endif
 
 #include "sim/model/diagonal_block_kernels.h"
+#include "sim/model/exact_sweep_kernels.h"
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/preconditioned_cg.h"
 #include "sim/model/rotation_batch_avx2.h"
@@ -118,7 +119,7 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
     rotated_gradients_[t] = rest_shape_inverse_[t].transpose();
   }
   const auto n = static_cast<size_t>(mesh_->vertex_count());
-  for (auto* s : {&forces_, &rhs_, &dv_, &r_, &z_, &p_, &q_, &kv_}) s->assign(n, Vec3::Zero());
+  for (auto* s : {&forces_, &rhs_, &dv_, &r_, &z_, &p_, &q_, &kv_, &sweep_rows_}) s->assign(n, Vec3::Zero());
   preconditioner_.assign(n, Mat3::Zero());
   diagonal_system_blocks_.assign(n, Mat3::Identity());
   dv_previous_.assign(n, Vec3::Zero());
@@ -1050,8 +1051,29 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     coarse_.correct_start(dv_, r_);
     residual = std::sqrt(dot(r_, r_)) / rhs_norm;
   }
+  // The forward sweep gathers from the transposed blocks (session 13, the same bits); advance may
+  // have refreshed them already for its products (session 18).
+  if (fused_sweeps_ && !coarse && !lower_transposed_refreshed_) refresh_lower_transposed(fixed);
+  // Session 18: the exact sweep's scatters (the first forward sweep, the true-residual checks) by
+  // gathering from them too (exact_sweep_kernels.h: the same bits).
+  const bool gathered_exact = fused_sweeps_ && !coarse && gathered_products_ && exact_sweep_kernels_available();
+  const GatheredSweepSystem gathered{lower_transposed_.data(), lower_.row_entries.data(), lower_.offsets.data(),
+                                     sweeps.D->data(), sweeps.D_inverse->data(), fixed.data(), stiffness_scale, n};
+  const auto true_residual_squared = [&]() {
+    if (!gathered_exact) return sweeps.lower_product_norm_sq(r_.data(), kv_.data());
+    exact_lower_product_rows_gathered(gathered, r_.data()->data(), kv_.data()->data(), sweep_rows_.data()->data());
+    double sum = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      if (fixed[i] == 0) sum += sweep_rows_[i].squaredNorm();
+    }
+    return sum;
+  };
   // r~ = (D + L)^-1 r; p^ = D r~.
-  sweeps.forward([&](size_t i) { return r_[i]; }, [&](size_t i, const Vec3& y) { r_[i] = y; }, kv_.data());
+  if (gathered_exact) {
+    exact_forward_sweep_gathered(gathered, r_.data()->data(), kv_.data()->data());
+  } else {
+    sweeps.forward([&](size_t i) { return r_[i]; }, [&](size_t i, const Vec3& y) { r_[i] = y; }, kv_.data());
+  }
   double rz = 0.0;
   for (size_t i = 0; i < n; ++i) {
     p_[i] = diagonal_system_blocks_[i] * r_[i];
@@ -1061,9 +1083,6 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   double scale = rz > 0.0 ? residual / std::sqrt(rz) : 0.0;
   const double tolerance = accuracy_.solver_tolerance;
   int it = 0;
-  // The forward sweep gathers from the transposed blocks (session 13, the same bits); advance may
-  // have refreshed them already for its products (session 18).
-  if (fused_sweeps_ && !coarse && !lower_transposed_refreshed_) refresh_lower_transposed(fixed);
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
                               lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data(),
@@ -1099,7 +1118,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     residual = scale * std::sqrt(std::max(rz_next, 0.0));
     if (residual <= tolerance || it == accuracy_.max_solver_iterations) {
       // The estimate says done (or the cap): measure the true residual.
-      residual = std::sqrt(sweeps.lower_product_norm_sq(r_.data(), kv_.data())) / rhs_norm;
+      residual = std::sqrt(true_residual_squared()) / rhs_norm;
       if (rz_next > 0.0) scale = residual / std::sqrt(rz_next);
       if (residual <= tolerance) break;
     }

@@ -164,8 +164,9 @@ class CorotationalFem final : public DeformationModel {
     system_valid_ = false;
   }
   /// Session 18: advance forms K' v and K' dv_0 of its right-hand side by gathering alone, from the
-  /// upper blocks and the fused sweeps' transposed lower blocks (on by default; the same bits as the
-  /// row product with its transposed scatter). false: apply_stiffness_pair, the code before.
+  /// upper blocks and the fused sweeps' transposed lower blocks, and the SSOR's exact first forward
+  /// sweep and true-residual checks gather from those blocks too (on by default where the fused sweeps
+  /// run; the same bits as the scatters). false: apply_stiffness_pair and the scatters, the code before.
   void set_gathered_stiffness_products(bool on) { gathered_products_ = on; }
   /// True when advance may form its right-hand side's products by gathering (where the fused sweeps run).
   bool gathered_stiffness_products() const { return gathered_products_; }
@@ -329,6 +330,7 @@ class CorotationalFem final : public DeformationModel {
 
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
+  std::vector<Vec3> sweep_rows_;  ///< solve_ssor scratch: the rows of (D + L) r of a true-residual check
   std::vector<Vec3> dv_previous_;  ///< the dv of the step before the last
   std::vector<Vec3> constraint_normal_;  ///< solve_constrained scratch: active unit normals (0: free)
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
