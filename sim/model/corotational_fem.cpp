@@ -563,11 +563,12 @@ double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
   const size_t L = evaluation_pass_lanes();
+  const bool scatter_kernel = vector_kernels_ && tet_kernels_on_this_cpu();  // decided once (session 18)
   Mat3 H[kMaxPassLanes];
   for (size_t t0 = 0; t0 < nt; t0 += L) {
     const size_t lanes = std::min(L, nt - t0);
     evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, lanes, H);
-    if (vector_kernels_ && tet_kernels_on_this_cpu()) {  // the same sums bit for bit (tet_gradient_kernels.h)
+    if (scatter_kernel) {  // the same sums bit for bit (tet_gradient_kernels.h)
       for (size_t l = 0; l < lanes; ++l) energy += tet_energy[t0 + l];
       scatter_element_forces_avx2(&mesh_->tets()[t0], H, lanes, forces.data()->data());
       continue;
