@@ -514,15 +514,18 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
                          &tet_energy[t0], H);
     return;
   }
-  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
+  // The 4-lane kernel reads the warm starts where they are (session 18); the other paths from rotations.
+  const bool lanes_read_warm_starts = lanes == L && vector_kernels_;
+  if (&rotations != &warm_starts && !lanes_read_warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
   Mat3 F[kMaxPassLanes];
   if (lanes_kernels) {
     deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], lanes, F);
   } else {
     for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
   }
-  if (lanes == L && vector_kernels_) {
-    extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  if (lanes_read_warm_starts) {
+    extract_rotations_batch_avx2_from(F, &warm_starts[t0], &rotations[t0], kElementRotationIterations,
+                                      kElementRotationTolerance);
   } else if (lanes == L) {
     extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
   } else if (lanes == kRotationBatchLanesAvx512 && avx512_lanes()) {
