@@ -40,6 +40,10 @@
 //   computed again only where K' blocks were written since the last advance (the reuse step records
 //   them; any other writer of K' makes the next advance rebuild all), while h, alpha, beta, the
 //   masses and the fixed flags keep their bits: the same bits as the full rebuild.
+// - Gathered products (session 18): the right-hand side's K' v and K' dv_0, the exact first forward
+//   sweep and the true-residual checks gather K'_ji^T terms from the fused sweeps' transposed lower
+//   blocks (refreshed by every advance that runs the fused sweeps) instead of scattering them: the
+//   same terms in the same order, the same bits.
 #pragma once
 
 #include <array>
