@@ -21,6 +21,22 @@ void BoxSetOutcodes::assign_codes(std::span<const Vec3> points) {
   narrow_ = boxes_.size() <= static_cast<size_t>(narrow_boxes);
   if (narrow_) {
     if (narrow_codes_.size() < points.size()) narrow_codes_.resize(points.size());
+    if (boxes_.size() == 1) {
+      // One box (the probe's partner; session 18): its bounds in locals, the six comparisons of the
+      // loop below for k = 0 in its order, the same bits (~57 -> ~20 instructions per point).
+      const Vec3 lo = boxes_[0].min, hi = boxes_[0].max;
+      std::uint64_t* codes = narrow_codes_.data();
+      for (size_t v = 0; v < points.size(); ++v) {
+        const Vec3& x = points[v];
+        std::uint64_t sides = 0;
+        for (int axis = 0; axis < 3; ++axis) {
+          sides |= static_cast<std::uint64_t>(x[axis] < lo[axis]) << (16 * axis);
+          sides |= static_cast<std::uint64_t>(x[axis] > hi[axis]) << (16 * axis + 8);
+        }
+        codes[v] = sides;
+      }
+      return;
+    }
     for (size_t v = 0; v < points.size(); ++v) {
       const Vec3& x = points[v];
       std::uint64_t sides = 0;

@@ -235,9 +235,13 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
   for (int a = 0; a < body_count; ++a) {
     const auto i = static_cast<size_t>(a);
     if (!hashes_vertices_[i] && !has_tets_[i]) continue;
+    // Into a local box (session 18: extending the member in place stored it back per vertex; the same
+    // comparisons in the same order).
+    Aabb bounds;
     for (const Vec3& x : bodies[i].positions.first(static_cast<size_t>(bodies[i].mesh->vertex_count()))) {
-      body_bounds_[i].extend(x);
+      bounds.extend(x);
     }
+    body_bounds_[i] = bounds;
   }
 
   // The body pairs whose bounds overlap (session 17): only these can hold each other's vertices.
@@ -350,13 +354,14 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     const int nv = cb.mesh->vertex_count();
     partner_outcodes_.assign_codes(cb.positions.first(static_cast<size_t>(nv)));
     const auto& tets = cb.mesh->tets();
-    const int nt = static_cast<int>(tets.size());
-    for (int t = 0; t < nt; ++t) {
-      const TetIndices& tet = tets[static_cast<size_t>(t)];
-      if (partner_outcodes_.misses_every_box(tet)) {
-        ++stats_.tets_skipped_partner_boxes;
-        continue;
-      }
+    const size_t nt = tets.size();
+    for (size_t next = 0;; ++next) {
+      // The tets before the next one that meets a box are skipped (misses_every_box, in one loop).
+      const size_t meeting = partner_outcodes_.first_tet_meeting_a_box(tets, next);
+      stats_.tets_skipped_partner_boxes += static_cast<long long>(meeting - next);
+      if (meeting >= nt) break;
+      next = meeting;
+      const int t = static_cast<int>(meeting);
       TetUnderTest under_test(cb, b, t);
       const Aabb& box = under_test.box;
       const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);

@@ -10,6 +10,7 @@
 #endif
 
 #include "sim/model/diagonal_block_kernels.h"
+#include "sim/model/exact_sweep_kernels.h"
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/preconditioned_cg.h"
 #include "sim/model/rotation_batch_avx2.h"
@@ -118,7 +119,7 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
     rotated_gradients_[t] = rest_shape_inverse_[t].transpose();
   }
   const auto n = static_cast<size_t>(mesh_->vertex_count());
-  for (auto* s : {&forces_, &rhs_, &dv_, &r_, &z_, &p_, &q_, &kv_}) s->assign(n, Vec3::Zero());
+  for (auto* s : {&forces_, &rhs_, &dv_, &r_, &z_, &p_, &q_, &kv_, &sweep_rows_}) s->assign(n, Vec3::Zero());
   preconditioner_.assign(n, Mat3::Zero());
   diagonal_system_blocks_.assign(n, Mat3::Identity());
   dv_previous_.assign(n, Vec3::Zero());
@@ -513,15 +514,18 @@ void CorotationalFem::evaluate_tet_batch(std::span<const Vec3> x, const std::vec
                          &tet_energy[t0], H);
     return;
   }
-  if (&rotations != &warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
+  // The 4-lane kernel reads the warm starts where they are (session 18); the other paths from rotations.
+  const bool lanes_read_warm_starts = lanes == L && vector_kernels_;
+  if (&rotations != &warm_starts && !lanes_read_warm_starts) std::copy_n(&warm_starts[t0], lanes, &rotations[t0]);
   Mat3 F[kMaxPassLanes];
   if (lanes_kernels) {
     deformation_gradients_avx2(x.data()->data(), &mesh_->tets()[t0], &rest_shape_inverse_[t0], lanes, F);
   } else {
     for (size_t l = 0; l < lanes; ++l) F[l] = deformation_gradient(x, static_cast<int>(t0 + l));
   }
-  if (lanes == L && vector_kernels_) {
-    extract_rotations_batch_avx2(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
+  if (lanes_read_warm_starts) {
+    extract_rotations_batch_avx2_from(F, &warm_starts[t0], &rotations[t0], kElementRotationIterations,
+                                      kElementRotationTolerance);
   } else if (lanes == L) {
     extract_rotations_batch(F, &rotations[t0], kElementRotationIterations, kElementRotationTolerance);
   } else if (lanes == kRotationBatchLanesAvx512 && avx512_lanes()) {
@@ -562,11 +566,12 @@ double CorotationalFem::evaluate_pass(std::span<const Vec3> x, const std::vector
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   double energy = 0.0;
   const size_t L = evaluation_pass_lanes();
+  const bool scatter_kernel = vector_kernels_ && tet_kernels_on_this_cpu();  // decided once (session 18)
   Mat3 H[kMaxPassLanes];
   for (size_t t0 = 0; t0 < nt; t0 += L) {
     const size_t lanes = std::min(L, nt - t0);
     evaluate_tet_batch(x, warm_starts, rotations, tet_energy, t0, lanes, H);
-    if (vector_kernels_ && tet_kernels_on_this_cpu()) {  // the same sums bit for bit (tet_gradient_kernels.h)
+    if (scatter_kernel) {  // the same sums bit for bit (tet_gradient_kernels.h)
       for (size_t l = 0; l < lanes; ++l) energy += tet_energy[t0 + l];
       scatter_element_forces_avx2(&mesh_->tets()[t0], H, lanes, forces.data()->data());
       continue;
@@ -1005,6 +1010,32 @@ void CorotationalFem::build_lower_pattern() const {
 // The relative 2-norm residual |r| / |rhs| of the stopping rule is r = (D + L) r~, computed (a third
 // pass) only when the M^-1-norm sqrt(r~ . D r~), scaled by its ratio to |r| at the last check,
 // predicts the tolerance, and at the end for the report.
+void CorotationalFem::refresh_lower_transposed(std::span<const char> fixed) {
+  build_lower_pattern();
+  if (incremental_system_ && lower_transposed_valid_ && block_changes_tracked_ && system_fixed_unchanged_) {
+    // Session 17: only the blocks written since the last advance, transposed by plain copies (the
+    // kernel's permutes copy too: the same bits); the rest are the bits they were.
+    for (int b : changed_blocks_) {
+      const int k = lower_entry_of_block_[static_cast<size_t>(b)];
+      if (k < 0) continue;  // a diagonal block
+      double* out = lower_transposed_.data() + 9 * static_cast<size_t>(k);
+      if (fixed[static_cast<size_t>(lower_.rows[static_cast<size_t>(k)])] != 0) {
+        std::fill(out, out + 9, 0.0);
+        continue;
+      }
+      const double* B = blocks_.data()->data() + 9 * static_cast<size_t>(b);
+      for (size_t r = 0; r < 3; ++r) {
+        for (size_t c = 0; c < 3; ++c) out[r + 3 * c] = B[c + 3 * r];
+      }
+    }
+  } else {
+    lower_transposed_.resize(9 * lower_.rows.size() + 4);
+    transpose_lower_blocks(blocks_.data()->data(), lower_.upper_blocks.data(), lower_.rows.data(), fixed.data(),
+                           lower_.rows.size(), lower_transposed_.data());
+  }
+  lower_transposed_refreshed_ = true;
+}
+
 CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double rhs_norm, double stiffness_scale,
                                                        std::span<const char> fixed) {
   const size_t n = dv_.size();
@@ -1024,8 +1055,29 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     coarse_.correct_start(dv_, r_);
     residual = std::sqrt(dot(r_, r_)) / rhs_norm;
   }
+  // The forward sweep gathers from the transposed blocks (session 13, the same bits); advance may
+  // have refreshed them already for its products (session 18).
+  if (fused_sweeps_ && !coarse && !lower_transposed_refreshed_) refresh_lower_transposed(fixed);
+  // Session 18: the exact sweep's scatters (the first forward sweep, the true-residual checks) by
+  // gathering from them too (exact_sweep_kernels.h: the same bits).
+  const bool gathered_exact = fused_sweeps_ && !coarse && gathered_products_ && exact_sweep_kernels_available();
+  const GatheredSweepSystem gathered{lower_transposed_.data(), lower_.row_entries.data(), lower_.offsets.data(),
+                                     sweeps.D->data(), sweeps.D_inverse->data(), fixed.data(), stiffness_scale, n};
+  const auto true_residual_squared = [&]() {
+    if (!gathered_exact) return sweeps.lower_product_norm_sq(r_.data(), kv_.data());
+    exact_lower_product_rows_gathered(gathered, r_.data()->data(), kv_.data()->data(), sweep_rows_.data()->data());
+    double sum = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      if (fixed[i] == 0) sum += sweep_rows_[i].squaredNorm();
+    }
+    return sum;
+  };
   // r~ = (D + L)^-1 r; p^ = D r~.
-  sweeps.forward([&](size_t i) { return r_[i]; }, [&](size_t i, const Vec3& y) { r_[i] = y; }, kv_.data());
+  if (gathered_exact) {
+    exact_forward_sweep_gathered(gathered, r_.data()->data(), kv_.data()->data());
+  } else {
+    sweeps.forward([&](size_t i) { return r_[i]; }, [&](size_t i, const Vec3& y) { r_[i] = y; }, kv_.data());
+  }
   double rz = 0.0;
   for (size_t i = 0; i < n; ++i) {
     p_[i] = diagonal_system_blocks_[i] * r_[i];
@@ -1035,31 +1087,6 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
   double scale = rz > 0.0 ? residual / std::sqrt(rz) : 0.0;
   const double tolerance = accuracy_.solver_tolerance;
   int it = 0;
-  if (fused_sweeps_ && !coarse) {  // the forward sweep gathers from the transposed blocks (session 13, the same bits)
-    build_lower_pattern();
-    if (incremental_system_ && lower_transposed_valid_ && block_changes_tracked_ && system_fixed_unchanged_) {
-      // Session 17: only the blocks written since the last advance, transposed by plain copies (the
-      // kernel's permutes copy too: the same bits); the rest are the bits they were.
-      for (int b : changed_blocks_) {
-        const int k = lower_entry_of_block_[static_cast<size_t>(b)];
-        if (k < 0) continue;  // a diagonal block
-        double* out = lower_transposed_.data() + 9 * static_cast<size_t>(k);
-        if (fixed[static_cast<size_t>(lower_.rows[static_cast<size_t>(k)])] != 0) {
-          std::fill(out, out + 9, 0.0);
-          continue;
-        }
-        const double* B = sweeps.blocks + 9 * static_cast<size_t>(b);
-        for (size_t r = 0; r < 3; ++r) {
-          for (size_t c = 0; c < 3; ++c) out[r + 3 * c] = B[c + 3 * r];
-        }
-      }
-    } else {
-      lower_transposed_.resize(9 * lower_.rows.size() + 4);
-      transpose_lower_blocks(sweeps.blocks, lower_.upper_blocks.data(), lower_.rows.data(), sweeps.fixed,
-                             lower_.rows.size(), lower_transposed_.data());
-    }
-    lower_transposed_refreshed_ = true;
-  }
   const FusedSsorSystem fused{sweeps.blocks, sweeps.cols, sweeps.offsets, sweeps.D->data(),
                               sweeps.D_inverse->data(), sweeps.fixed, sweeps.s, n,
                               lower_transposed_.data(), lower_.rows.data(), lower_.offsets.data(),
@@ -1095,7 +1122,7 @@ CorotationalFem::CgOutcome CorotationalFem::solve_ssor(double residual, double r
     residual = scale * std::sqrt(std::max(rz_next, 0.0));
     if (residual <= tolerance || it == accuracy_.max_solver_iterations) {
       // The estimate says done (or the cap): measure the true residual.
-      residual = std::sqrt(sweeps.lower_product_norm_sq(r_.data(), kv_.data())) / rhs_norm;
+      residual = std::sqrt(true_residual_squared()) / rhs_norm;
       if (rz_next > 0.0) scale = residual / std::sqrt(rz_next);
       if (residual <= tolerance) break;
     }
@@ -1172,6 +1199,24 @@ bool CorotationalFem::build_diagonal_system(double mass_scale, double stiffness_
   return pass;
 }
 
+// Session 18: the right-hand side's two products by stiffness_product_pair_gathered, where the
+// fused sweeps' transposed lower blocks exist (their kernels run, no coarse correction), the step is
+// serial, and every fixed row's v and warm start dv are exactly zero (apply_stiffness_pair skips
+// those rows, and their transposed blocks are zero: a fixed row with a nonzero v would send K'^T v
+// that the zeroed copies drop).
+bool CorotationalFem::gathered_products_possible(std::span<const Vec3> v, std::span<const char> fixed) const {
+  if (!gathered_products_ || !fused_sweeps_ || !vector_kernels_ || coarse_aggregate_size_ > 0 ||
+      product_ != StiffnessProduct::assembled || runs_parallel(executor_) || !stiffness_row_kernels_available()) {
+    return false;
+  }
+  const auto exactly_zero = [](const Vec3& x) { return x.x() == 0.0 && x.y() == 0.0 && x.z() == 0.0; };
+  const size_t n = v.size();
+  for (size_t i = 0; i < n; ++i) {
+    if (fixed[i] != 0 && !(exactly_zero(v[i]) && exactly_zero(dv_[i]))) return false;
+  }
+  return true;
+}
+
 IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v, const IntegrationInput& in) {
   IntegrationResult result;
   const double h = in.dt;
@@ -1200,27 +1245,42 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
     dv_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(2.0 * last - dv_previous_[i]);
     dv_previous_[i] = last;
   }
+  // The SSOR's diagonal blocks D_i and their inverses for the assembled K' (session 18: before the
+  // products below, which read the transposed lower blocks this step's fixed flags decide).
+  bool ssor = product_ == StiffnessProduct::assembled && preconditioner_kind_ == Preconditioner::ssor;
+  if (product_ == StiffnessProduct::assembled) ssor = build_diagonal_system(mass_scale, stiffness_scale, in) && ssor;
+
   // Right-hand side h (f + f_ext - alpha M v) - h (beta + h) K' v, zero at fixed vertices. With the
   // assembled K', K' dv of the warm start's residual comes from the same pass (q_).
   const bool warm_product = stiffness_assembled_;
-  if (warm_product) {
+  products_gathered_ = warm_product && gathered_products_possible(v, in.fixed);
+  if (products_gathered_) {
+    // Session 18: by gathering alone, from the transposed lower blocks the fused sweeps read (refreshed
+    // here instead of in solve_ssor): the same bits as apply_stiffness_pair.
+    if (!lower_transposed_refreshed_) refresh_lower_transposed(in.fixed);
+    const StiffnessPairSystem sys{blocks_.data()->data(), lower_.column_entries.data(), block_row_offsets_.data(),
+                                  lower_transposed_.data(), lower_.row_entries.data(), lower_.offsets.data(),
+                                  in.fixed.data(), n};
+    stiffness_product_pair_gathered(sys, v.data()->data(), dv_.data()->data(), kv_.data()->data(),
+                                    q_.data()->data());
+  } else if (warm_product) {
     apply_stiffness_pair(v, kv_, dv_, q_, in.fixed);  // fixed rows: v = dv = 0, results unused
   } else {
     apply_stiffness(v, kv_);
   }
+  // |rhs|^2 summed in the same loop (session 18; the sum dot(rhs_, rhs_) took, in its order).
+  double rhs_squared = 0.0;
   for (size_t i = 0; i < n; ++i) {
     rhs_[i] = in.fixed[i] != 0 ? Vec3::Zero()
                                : Vec3(h * (forces_[i] + in.external_forces[i] - alpha_ * in.masses[i] * v[i]) -
                                       stiffness_scale * kv_[i]);
+    rhs_squared += rhs_[i].dot(rhs_[i]);
   }
 
   // Block-Jacobi preconditioner: inverse 3x3 diagonal blocks of the system matrix.
   // SSOR needs every diagonal block positive definite (a massless or degenerate vertex falls back
   // to block-Jacobi, whose zero block drops that vertex from the preconditioner).
-  bool ssor = product_ == StiffnessProduct::assembled && preconditioner_kind_ == Preconditioner::ssor;
-  if (product_ == StiffnessProduct::assembled) {
-    ssor = build_diagonal_system(mass_scale, stiffness_scale, in) && ssor;
-  } else {
+  if (product_ != StiffnessProduct::assembled) {
     for (size_t i = 0; i < n; ++i) preconditioner_[i] = Mat3::Identity() * (mass_scale * in.masses[i]);
     refresh_rotated_gradients();
     const auto nt = static_cast<size_t>(mesh_->tet_count());
@@ -1244,7 +1304,7 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   }
 
   // Preconditioned conjugate gradients on (M + h D + h^2 K') dv = rhs, warm-started from the last dv.
-  const double rhs_norm = std::sqrt(dot(rhs_, rhs_));
+  const double rhs_norm = std::sqrt(rhs_squared);
   if (!std::isfinite(rhs_norm)) {
     // Non-finite input (e.g. a NaN applied force): NaN comparisons would skip the CG loop and
     // silently reuse the warm start, so make the result non-finite and let World::step report the
@@ -1260,17 +1320,20 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   } else if (rhs_norm == 0.0) {
     std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
   } else {
+    double rr = 0.0;
     if (warm_product) {
+      // A dv_0 and the residual in one loop (session 18; the two loops' expressions in their order).
       for (size_t i = 0; i < n; ++i) {
         q_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * in.masses[i] * dv_[i] + stiffness_scale * q_[i]);
+        r_[i] = rhs_[i] - q_[i];
+        rr += r_[i].squaredNorm();
       }
     } else {
       multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
-    }
-    double rr = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      r_[i] = rhs_[i] - q_[i];
-      rr += r_[i].squaredNorm();
+      for (size_t i = 0; i < n; ++i) {
+        r_[i] = rhs_[i] - q_[i];
+        rr += r_[i].squaredNorm();
+      }
     }
     double residual = std::sqrt(rr) / rhs_norm;
     if (residual > 1.0) {

@@ -40,6 +40,10 @@
 //   computed again only where K' blocks were written since the last advance (the reuse step records
 //   them; any other writer of K' makes the next advance rebuild all), while h, alpha, beta, the
 //   masses and the fixed flags keep their bits: the same bits as the full rebuild.
+// - Gathered products (session 18): the right-hand side's K' v and K' dv_0, the exact first forward
+//   sweep and the true-residual checks gather K'_ji^T terms from the fused sweeps' transposed lower
+//   blocks (refreshed by every advance that runs the fused sweeps) instead of scattering them: the
+//   same terms in the same order, the same bits.
 #pragma once
 
 #include <array>
@@ -163,6 +167,15 @@ class CorotationalFem final : public DeformationModel {
     incremental_system_ = on;
     system_valid_ = false;
   }
+  /// Session 18: advance forms K' v and K' dv_0 of its right-hand side by gathering alone, from the
+  /// upper blocks and the fused sweeps' transposed lower blocks, and the SSOR's exact first forward
+  /// sweep and true-residual checks gather from those blocks too (on by default where the fused sweeps
+  /// run; the same bits as the scatters). false: apply_stiffness_pair and the scatters, the code before.
+  void set_gathered_stiffness_products(bool on) { gathered_products_ = on; }
+  /// True when advance may form its right-hand side's products by gathering (where the fused sweeps run).
+  bool gathered_stiffness_products() const { return gathered_products_; }
+  /// True when the last advance formed its right-hand side's products by gathering.
+  bool last_products_gathered() const { return products_gathered_; }
   /// True when advance updates the SSOR's per-step data incrementally.
   bool incremental_system() const { return incremental_system_; }
   /// Diagonal system block rows (D_i, D_i^-1) the last advance computed (all of them on a full rebuild).
@@ -321,6 +334,7 @@ class CorotationalFem final : public DeformationModel {
 
   // Per-step scratch, sized once.
   std::vector<Vec3> rhs_, dv_, r_, z_, p_, q_, kv_;
+  std::vector<Vec3> sweep_rows_;  ///< solve_ssor scratch: the rows of (D + L) r of a true-residual check
   std::vector<Vec3> dv_previous_;  ///< the dv of the step before the last
   std::vector<Vec3> constraint_normal_;  ///< solve_constrained scratch: active unit normals (0: free)
   std::vector<Mat3> preconditioner_;         ///< inverse diagonal blocks D_i^-1 of the system (0 or I: fixed)
@@ -390,6 +404,13 @@ class CorotationalFem final : public DeformationModel {
   /// ascending j: the order the serial product scatters them in) before its own row, the same bits.
   void apply_stiffness_pair_parallel(std::span<const Vec3> a, std::span<Vec3> ya, std::span<const Vec3> b,
                                      std::span<Vec3> yb) const;
+  /// Refreshes lower_transposed_ from blocks_ and `fixed` (only the blocks written since the last
+  /// advance where that is valid, session 17) and sets lower_transposed_refreshed_.
+  void refresh_lower_transposed(std::span<const char> fixed);
+  /// True when advance may use stiffness_product_pair_gathered for K' v and K' dv (session 18).
+  bool gathered_products_possible(std::span<const Vec3> v, std::span<const char> fixed) const;
+  bool gathered_products_ = true;   ///< set_gathered_stiffness_products
+  bool products_gathered_ = false;  ///< last_products_gathered
   /// Builds lower_ from the block pattern (once: the sparsity is the mesh's).
   void build_lower_pattern() const;
   /// The upper blocks by column: for row i, the blocks (j, i) with j < i, ascending j.

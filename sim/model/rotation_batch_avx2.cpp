@@ -20,6 +20,12 @@ __attribute__((target("avx2"), flatten)) void extract_rotations_batch_avx2(const
   extract_rotations_lanes<kRotationBatchLanesAvx2>(F, q, max_iterations, tolerance, iterations);
 }
 
+__attribute__((target("avx2"), flatten)) void extract_rotations_batch_avx2_from(const Mat3* F, const Quat* warm_starts,
+                                                                                Quat* q, int max_iterations,
+                                                                                double tolerance) {
+  extract_rotations_lanes<kRotationBatchLanesAvx2>(F, q, max_iterations, tolerance, nullptr, nullptr, warm_starts);
+}
+
 __attribute__((target("avx2"), flatten)) void extract_rotation_matrices_batch_avx2(const Mat3* F, Quat* q, Mat3* R,
                                                                                   int max_iterations,
                                                                                   double tolerance) {
@@ -34,6 +40,14 @@ void extract_rotations_batch_avx2(const Mat3* F, Quat* q, int max_iterations, do
   for (int l = 0; l < kRotationBatchLanesAvx2; ++l) {
     const int it = extract_rotation(F[l], q[l], max_iterations, tolerance);
     if (iterations != nullptr) iterations[l] = it;
+  }
+}
+
+void extract_rotations_batch_avx2_from(const Mat3* F, const Quat* warm_starts, Quat* q, int max_iterations,
+                                       double tolerance) {
+  for (int l = 0; l < kRotationBatchLanesAvx2; ++l) {
+    q[l] = warm_starts[l];
+    extract_rotation(F[l], q[l], max_iterations, tolerance);
   }
 }
 

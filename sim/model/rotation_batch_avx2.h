@@ -24,6 +24,11 @@ bool rotation_batch_avx2_available();
 void extract_rotations_batch_avx2(const Mat3* F, Quat* q, int max_iterations, double tolerance,
                                   int* iterations = nullptr);
 
+/// extract_rotations_batch_avx2 from the warm starts warm_starts[l] into q[l] (another array; session
+/// 18): the results of copying them into q first, bit for bit. Only where rotation_batch_avx2_available().
+void extract_rotations_batch_avx2_from(const Mat3* F, const Quat* warm_starts, Quat* q, int max_iterations,
+                                       double tolerance);
+
 /// extract_rotations_batch_avx2 that also writes R[l] = q[l].toRotationMatrix() (bit for bit), the
 /// normalisation and R computed in the lanes (session 13: the local queries' stress reads R).
 void extract_rotation_matrices_batch_avx2(const Mat3* F, Quat* q, Mat3* R, int max_iterations, double tolerance);

@@ -346,18 +346,22 @@ inline void rotation_matrix_lanes(const typename LaneTypes<L>::Lanes& qx, const 
 }
 }  // namespace rotation_batch_detail
 
-/// extract_rotation for L tets at once (F[l], warm starts q[l]), bit for bit the scalar's result
-/// per lane; iterations[l] (optional) receives each lane's count, and rotation_matrices[l] (optional) the rotation
+/// extract_rotation for L tets at once (F[l], warm starts q[l], or warm_starts[l] where given, the
+/// results into q[l]), bit for bit the scalar's result per lane; iterations[l] (optional) receives each lane's count, and rotation_matrices[l] (optional) the rotation
 /// matrix q[l].toRotationMatrix(), bit for bit. L = 4 wants AVX registers (see
 /// extract_rotations_batch_avx2 in sim/model/rotation_batch_avx2.h for the run-time choice).
 template <int L>
 inline void extract_rotations_lanes(const Mat3* F, Quat* q, int max_iterations, double tolerance,
-                                    int* iterations = nullptr, Mat3* rotation_matrices = nullptr) {
+                                    int* iterations = nullptr, Mat3* rotation_matrices = nullptr,
+                                    const Quat* warm_starts = nullptr) {
   using Lanes = typename rotation_batch_detail::LaneTypes<L>::Lanes;
   Lanes Fl[3][3];  // F(i, j) per lane
   rotation_batch_detail::LaneTypes<L>::load_matrices(F, Fl);
   Lanes qx, qy, qz, qw, count;
-  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; }, q, q, max_iterations,
+  // The warm starts from their own array where given (session 18: the 4-lane pass of an energy query
+  // no longer copies them into q first), else from q.
+  rotation_batch_detail::iterate_rotation_lanes<L>(Fl, [&](int l) -> const Mat3& { return F[l]; },
+                                                   warm_starts != nullptr ? warm_starts : q, q, max_iterations,
                                                    tolerance, qx, qy, qz, qw, count);
   if (L >= 4 || rotation_matrices != nullptr) {
     // Session 13: the normalisation in the lanes (the per-lane normalisation was ~23 instructions

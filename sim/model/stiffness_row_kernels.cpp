@@ -370,11 +370,72 @@ PLIANT_AVX2_ONLY void stiffness_row_product(const double* blocks, const int* col
   result[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(yi, 1));
 }
 
+namespace {
+
+/// Stores lanes 0..2 of x at v.
+PLIANT_AVX2_ONLY inline void store3(double* v, __m256d x) {
+  _mm_storeu_pd(v, _mm256_castpd256_pd128(x));
+  v[2] = _mm_cvtsd_f64(_mm256_extractf128_pd(x, 1));
+}
+
+}  // namespace
+
+// Per lower entry the transposed copy's columns are rows of K'_ji, so L a_j = (c0 a_j0 + c1 a_j1) +
+// c2 a_j2 is block_times again: entry k = (B_0k a_0 + B_1k a_1) + B_2k a_2, the row product's
+// transposed term (its -0.0 fourth product added to that sum changes no bit). Lane 3 of every
+// product is a finite entry of the next block (or the copies' padding) times an a_j entry, never
+// stored. The third column of an upper block is loaded masked (the last block has no successor).
+PLIANT_AVX2_ONLY void stiffness_product_pair_gathered(const StiffnessPairSystem& sys, const double* a,
+                                                      const double* b, double* ya, double* yb) {
+  const double* blocks = sys.blocks;
+  const int* col_entries = sys.col_entries;
+  const int* offsets = sys.offsets;
+  const double* lower = sys.lower;
+  const int* rows = sys.lower_row_entries;
+  const int* lower_offsets = sys.lower_offsets;
+  const char* skip = sys.skip;
+  const size_t n = sys.n;
+  for (size_t i = 0; i < n; ++i) {
+    if (skip[i] != 0) {
+      store3(ya + 3 * i, _mm256_setzero_pd());
+      store3(yb + 3 * i, _mm256_setzero_pd());
+      continue;
+    }
+    __m256d sa = _mm256_setzero_pd(), sb = _mm256_setzero_pd();
+    const auto lower_last = static_cast<size_t>(lower_offsets[i + 1]);
+    for (auto k = static_cast<size_t>(lower_offsets[i]); k < lower_last; ++k) {
+      const double* L = lower + 9 * k;
+      const __m256d c0 = _mm256_loadu_pd(L), c1 = _mm256_loadu_pd(L + 3), c2 = _mm256_loadu_pd(L + 6);
+      const auto j = static_cast<size_t>(rows[k]);
+      sa = _mm256_add_pd(sa, block_times(c0, c1, c2, a + j));
+      sb = _mm256_add_pd(sb, block_times(c0, c1, c2, b + j));
+    }
+    const auto first = static_cast<size_t>(offsets[i]), last = static_cast<size_t>(offsets[i + 1]);
+    const double* D = blocks + 9 * first;  // K'_ii
+    {
+      const __m256d c0 = _mm256_loadu_pd(D), c1 = _mm256_loadu_pd(D + 3), c2 = load3(D + 6);
+      sa = _mm256_add_pd(sa, block_times(c0, c1, c2, a + 3 * i));
+      sb = _mm256_add_pd(sb, block_times(c0, c1, c2, b + 3 * i));
+    }
+    for (size_t k = first + 1; k < last; ++k) {
+      const double* B = blocks + 9 * k;
+      const __m256d c0 = _mm256_loadu_pd(B), c1 = _mm256_loadu_pd(B + 3), c2 = load3(B + 6);
+      const auto j = static_cast<size_t>(col_entries[k]);
+      sa = _mm256_add_pd(sa, block_times(c0, c1, c2, a + j));
+      sb = _mm256_add_pd(sb, block_times(c0, c1, c2, b + j));
+    }
+    store3(ya + 3 * i, sa);
+    store3(yb + 3 * i, sb);
+  }
+}
+
 #else
 
 bool stiffness_row_kernels_available() { return false; }
 
 void stiffness_row_product(const double*, const int*, size_t, size_t, size_t, const double*, double*, double*) {}
+
+void stiffness_product_pair_gathered(const StiffnessPairSystem&, const double*, const double*, double*, double*) {}
 
 void sum_stiffness_row(const StiffnessRowSystem&, size_t, size_t, size_t, size_t, const char*) {}
 

@@ -77,4 +77,29 @@ inline bool corner_adds_to_dirty_block(const int* slots, const char* block_dirty
 void stiffness_row_product(const double* blocks, const int* cols, size_t first_block, size_t last_block, size_t i,
                            const double* p, double* y, double* result);
 
+/// What the gathered pair product reads: K' as stored (upper-triangle CSR rows, the first block of
+/// row i is K'_ii) and its lower triangle as transposed copies (fused_ssor_kernels.h's
+/// LowerTrianglePattern and transpose_lower_blocks: row i's entries k hold K'_ji^T, j < i ascending).
+struct StiffnessPairSystem {
+  const double* blocks;          ///< K' upper-triangle 3x3 blocks, column-major, 9 doubles each
+  const int* col_entries;        ///< per block 3 cols[b] (the first double of its column vertex)
+  const int* offsets;            ///< n + 1 row offsets of blocks
+  const double* lower;           ///< per lower entry K'_ji^T (zero where row j is skipped), + 4 padding doubles
+  const int* lower_row_entries;  ///< per lower entry 3 j
+  const int* lower_offsets;      ///< n + 1 row offsets of the lower entries
+  const char* skip;              ///< nonzero: a row whose a and b are exactly zero and whose results are set to zero
+  size_t n;                      ///< rows (vertices)
+};
+
+/// ya = K' a and yb = K' b, every row by gathering alone (session 18): row i's sum is its lower
+/// entries' K'_ji^T a_j (j ascending, each (B_0k a_0 + B_1k a_1) + B_2k a_2 added to a sum that
+/// starts at +0), then K'_ii a_i, then each upper block's K'_ij a_j, ascending j; a skipped row's
+/// results are zero. That is, term for term and in order, what the upper-triangle row product
+/// (stiffness_row_product over the rows ascending, with the skipped rows left out) adds into y_i:
+/// the same bits, where every skipped row's a and b are exactly zero and its lower copies are zero
+/// or its K'^T (a zero product added to a sum that is never -0 leaves it as it was). Both vectors
+/// share each block's loads. Only where stiffness_row_kernels_available().
+void stiffness_product_pair_gathered(const StiffnessPairSystem& sys, const double* a, const double* b, double* ya,
+                                     double* yb);
+
 }  // namespace pliant

@@ -70,6 +70,57 @@ TEST(BoxSetOutcodes, RejectsExactlyTheTetsWhoseBoxMeetsNoBox) {
   EXPECT_GT(touching, 500);   // and the closed boundary is exercised
 }
 
+// Session 18: the range search first_tet_meeting_a_box finds, from every start, the first tet
+// whose box meets some box (the direct test), with 0 to 12 boxes (one box: its own loop) and NaN
+// corners among the points; so the hash's pass 2 visits the tets it visited with misses_every_box.
+TEST(BoxSetOutcodes, RangeSearchFindsTheFirstMeetingTetFromEveryStart) {
+  std::mt19937 rng(1818);
+  testing::ScopedFpTrapsOff traps_off;  // the NaN corners are on purpose (ordered comparisons with them are invalid)
+  BoxSetOutcodes codes;
+  long long found = 0, none = 0, one_box_rounds = 0;
+  for (int round = 0; round < 260; ++round) {
+    std::vector<Aabb> boxes(static_cast<size_t>(round % 13));
+    one_box_rounds += boxes.size() == 1 ? 1 : 0;
+    codes.clear_boxes();
+    for (Aabb& box : boxes) {
+      box = grid_box(rng);
+      box.max = box.min + 0.5 * (box.max - box.min);
+      codes.add_box(box);
+    }
+    std::vector<Vec3> points(40);
+    for (Vec3& p : points) p = grid_point(rng);
+    if (round % 5 == 0) points[3].y() = std::numeric_limits<double>::quiet_NaN();
+    codes.assign_codes(points);
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(points.size()) - 1);
+    std::vector<TetIndices> tets(1 + static_cast<size_t>(round % 23));
+    std::vector<char> meets(tets.size());
+    for (size_t t = 0; t < tets.size(); ++t) {
+      tets[t] = {pick(rng), pick(rng), pick(rng), pick(rng)};
+      Aabb tet_box;
+      bool nan_corner = false;
+      for (int k : tets[t]) {
+        tet_box.extend(points[static_cast<size_t>(k)]);
+        nan_corner = nan_corner || !points[static_cast<size_t>(k)].allFinite();
+      }
+      // The direct test where the corners are numbers; with a NaN corner the per-tet decision (a
+      // NaN sets no bit on its axis; the other axes still decide).
+      meets[t] = codes.misses_every_box(tets[t]) ? 0 : 1;
+      if (!nan_corner) {
+        ASSERT_EQ(meets[t] != 0, meets_some(tet_box, boxes)) << round << " " << t;
+      }
+    }
+    for (size_t first = 0; first <= tets.size(); ++first) {
+      size_t expected = first;
+      while (expected < tets.size() && meets[expected] == 0) ++expected;
+      ASSERT_EQ(codes.first_tet_meeting_a_box(tets, first), expected) << round << " " << first;
+      (expected < tets.size() ? found : none) += 1;
+    }
+  }
+  EXPECT_GT(found, 1000);
+  EXPECT_GT(none, 400);
+  EXPECT_EQ(one_box_rounds, 20);
+}
+
 // Past 64 boxes the rest are merged into the last: never a tet rejected that meets a box (exact for
 // the hash), and the first 63 boxes still reject as before.
 TEST(BoxSetOutcodes, MoreThanSixtyFourBoxesStillNeverRejectAMeetingTet) {
