@@ -230,8 +230,10 @@ void CorotationalFem::exact_query_stresses_batched() {
   // Four lanes in AVX2 registers where the CPU has them (the full pass's extraction, session 11),
   // else kRotationBatchLanes. Each lane is the scalar extraction bit for bit whatever else shares
   // the batch, so a short last batch is filled up with copies of its last tet (results discarded).
-  // Session 18: eight lanes in AVX-512 registers where the evaluation pass has them.
-  const size_t L = avx512_lanes() ? kRotationBatchLanesAvx512 : evaluation_batch_lanes();
+  // Session 18: eight lanes in AVX-512 registers where the evaluation pass has them and more than
+  // four tets are left (a last batch of at most four takes the four lanes: the same work, half wide).
+  const size_t batch_lanes = evaluation_batch_lanes();
+  const bool wide = avx512_lanes();
   const size_t count = query_pending_.size();
   constexpr size_t kMaxLanes = std::max({kRotationBatchLanesAvx512, kRotationBatchLanesAvx2, kRotationBatchLanes});
   Mat3 F[kMaxLanes];
@@ -240,9 +242,10 @@ void CorotationalFem::exact_query_stresses_batched() {
   const bool stress_kernels = vector_kernels_ && query_stress_kernels_available();
   // Session 12: in the exact query every slot is a pending tet, taken in order (slot k = pending
   // tet k), so whole batches need no gather of F nor a copy of P back into the slot.
-  const bool in_slot_order = stress_kernels && L == kRotationBatchLanesAvx2 && count == query_slots_;
-  size_t i = 0;
+  const bool in_slot_order = stress_kernels && batch_lanes == kRotationBatchLanesAvx2 && count == query_slots_;
+  size_t i = 0, L = batch_lanes;
   for (; i < count; i += L) {
+    L = wide && !in_slot_order && count - i > batch_lanes ? kRotationBatchLanesAvx512 : batch_lanes;
     const size_t lanes = std::min(L, count - i);
     if (lanes < L && !vector_kernels_) break;  // the code before: the last few one at a time
     if (in_slot_order && lanes == L) {
