@@ -14,17 +14,13 @@
 #include "sim/model/corotational_fem.h"
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/stiffness_row_kernels.h"
-#include "support/clamped_beam.h"
+#include "support/beam_model_pair.h"
 
 namespace pliant {
 namespace {
 
 bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
-}
-
-bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
 }
 
 bool kernels_available() { return stiffness_row_kernels_available() && fused_sweeps_available(); }
@@ -102,43 +98,24 @@ TEST(GatheredStiffnessProducts, EqualTheRowProductBitForBit) {
   EXPECT_GT(skipped_rows, 500);
 }
 
-// No gravity; the outer 15% is pushed sideways and down, so the tip swings (its tets rotate past
-// the K' reuse tolerance) while the part near the clamp barely rotates.
-struct TipPushedBeam : ClampedBeam {
-  TipPushedBeam()
-      : ClampedBeam(20, [](const Vec3& rest, double m) {
-          return rest.x() > 0.35 ? Vec3(m * Vec3(0.0, 3.0, -6.0)) : Vec3::Zero();
-        }) {}
-};
-
-/// Two copies of a beam and its model: `gathered` with the gathered products (the default),
-/// `scattered` with them off.
-struct Pair {
-  TipPushedBeam a, b;
-  CorotationalFem gathered{a.mesh, a.material, ModelSettings{}};
-  CorotationalFem scattered{b.mesh, b.material, ModelSettings{}};
-  size_t n = static_cast<size_t>(a.mesh->vertex_count());
+/// `gathered` with the gathered products (the default), `scattered` with them off.
+struct Pair : BeamModelPair {
+  CorotationalFem& gathered = first;
+  CorotationalFem& scattered = second;
   Pair() { scattered.set_gathered_stiffness_products(false); }
 
-  /// One step of both with the same input (dt, masses, fixed flags of beam a, copied to b); returns
-  /// whether the gathered model gathered its products.
+  /// One step of both (BeamModelPair::advance_both); returns whether the gathered model gathered
+  /// its products.
   bool step(double dt, std::span<const Vec3> constraint_normals = {},
             std::span<const double> constraint_velocities = {}) {
-    b.masses = a.masses;
-    b.fixed = a.fixed;
-    IntegrationInput ia = a.input(), ib = b.input();
-    ia.dt = ib.dt = dt;
-    ia.constraint_normals = ib.constraint_normals = constraint_normals;
-    ia.constraint_normal_velocities = ib.constraint_normal_velocities = constraint_velocities;
-    gathered.advance(a.x, a.v, ia);
-    scattered.advance(b.x, b.v, ib);
+    advance_both(dt, constraint_normals, constraint_velocities);
     EXPECT_FALSE(scattered.last_products_gathered());
     return gathered.last_products_gathered();
   }
 
   void expect_same(int step) const {
-    ASSERT_TRUE(same_bits(a.x, b.x)) << "positions differ at step " << step;
-    ASSERT_TRUE(same_bits(a.v, b.v)) << "velocities differ at step " << step;
+    ASSERT_TRUE(same_positions()) << "positions differ at step " << step;
+    ASSERT_TRUE(same_velocities()) << "velocities differ at step " << step;
   }
 };
 

@@ -12,50 +12,35 @@
 #include <vector>
 
 #include "sim/model/corotational_fem.h"
-#include "support/clamped_beam.h"
+#include "support/beam_model_pair.h"
 #include "support/inline_two_thread_executor.h"
 
 namespace pliant {
 namespace {
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
-
 bool same_bits(std::span<const Mat3> a, std::span<const Mat3> b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Mat3)) == 0;
 }
 
-/// Two copies of a beam and its model: `incremental` with the update on (the default), `full` with
-/// it off.
-struct Pair {
-  TipPushedBeam a, b;
-  CorotationalFem incremental{a.mesh, a.material, ModelSettings{}};
-  CorotationalFem full{b.mesh, b.material, ModelSettings{}};
-  size_t n = static_cast<size_t>(a.mesh->vertex_count());
+/// `incremental` with the update on (the default), `full` with it off.
+struct Pair : BeamModelPair {
+  CorotationalFem& incremental = first;
+  CorotationalFem& full = second;
   Pair() { full.set_incremental_system(false); }
 
-  /// One step of both with the same input (dt, masses, fixed flags of beam a, copied to b); returns
-  /// the rows of D the incremental model computed.
+  /// One step of both (BeamModelPair::advance_both); returns the rows of D the incremental model
+  /// computed.
   size_t step(double dt, std::span<const Vec3> constraint_normals = {},
               std::span<const double> constraint_velocities = {}) {
-    b.masses = a.masses;
-    b.fixed = a.fixed;
-    IntegrationInput ia = a.input(), ib = b.input();
-    ia.dt = ib.dt = dt;
-    ia.constraint_normals = ib.constraint_normals = constraint_normals;
-    ia.constraint_normal_velocities = ib.constraint_normal_velocities = constraint_velocities;
-    incremental.advance(a.x, a.v, ia);
-    full.advance(b.x, b.v, ib);
+    advance_both(dt, constraint_normals, constraint_velocities);
     EXPECT_EQ(full.rebuilt_system_rows(), n);
     EXPECT_EQ(incremental.reassembled_rows(), full.reassembled_rows());
     return incremental.rebuilt_system_rows();
   }
 
   void expect_same(int step) const {
-    ASSERT_TRUE(same_bits(a.x, b.x)) << "positions differ at step " << step;
-    ASSERT_TRUE(same_bits(a.v, b.v)) << "velocities differ at step " << step;
+    ASSERT_TRUE(same_positions()) << "positions differ at step " << step;
+    ASSERT_TRUE(same_velocities()) << "velocities differ at step " << step;
     ASSERT_TRUE(same_bits(incremental.diagonal_system_blocks(), full.diagonal_system_blocks()))
         << "D differs at step " << step;
   }
