@@ -12,6 +12,7 @@
 #include "sim/math_types.h"
 #include "sim/model/exact_sweep_kernels.h"
 #include "sim/model/fused_ssor_kernels.h"
+#include "support/random_block_pattern.h"
 
 namespace pliant {
 namespace {
@@ -42,14 +43,7 @@ TEST(ExactSweepKernels, GatheredForwardSweepAndResidualRowsEqualTheScatterBitFor
   int rows_checked = 0, fixed_rows = 0;
   for (int round = 0; round < 300; ++round) {
     const size_t n = 1 + static_cast<size_t>(round % 41);
-    std::vector<int> offsets{0}, cols;
-    for (size_t i = 0; i < n; ++i) {
-      cols.push_back(static_cast<int>(i));
-      for (size_t j = i + 1; j < n; ++j) {
-        if (pick(rng) < 5) cols.push_back(static_cast<int>(j));
-      }
-      offsets.push_back(static_cast<int>(cols.size()));
-    }
+    auto [offsets, cols] = random_upper_block_pattern(n, rng, pick);
     std::vector<double> blocks(9 * cols.size());
     for (double& e : blocks) e = entry();
     std::vector<char> fixed(n);

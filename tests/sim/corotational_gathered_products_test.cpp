@@ -15,6 +15,7 @@
 #include "sim/model/fused_ssor_kernels.h"
 #include "sim/model/stiffness_row_kernels.h"
 #include "support/beam_model_pair.h"
+#include "support/random_block_pattern.h"
 
 namespace pliant {
 namespace {
@@ -46,14 +47,7 @@ TEST(GatheredStiffnessProducts, EqualTheRowProductBitForBit) {
   int checked_rows = 0, skipped_rows = 0;
   for (int round = 0; round < 200; ++round) {
     const size_t n = 1 + static_cast<size_t>(round % 37);
-    std::vector<int> offsets{0}, cols;
-    for (size_t i = 0; i < n; ++i) {
-      cols.push_back(static_cast<int>(i));
-      for (size_t j = i + 1; j < n; ++j) {
-        if (pick(rng) < 5) cols.push_back(static_cast<int>(j));
-      }
-      offsets.push_back(static_cast<int>(cols.size()));
-    }
+    auto [offsets, cols] = random_upper_block_pattern(n, rng, pick);
     std::vector<double> blocks(9 * cols.size());
     for (double& e : blocks) e = entry();
     std::vector<char> skip(n, 0);
