@@ -26,15 +26,7 @@ TEST(ExactSweepKernels, GatheredForwardSweepAndResidualRowsEqualTheScatterBitFor
   std::mt19937 rng(1818);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::uniform_int_distribution<int> pick(0, 15);
-  const auto entry = [&]() {
-    switch (pick(rng)) {
-      case 0: return 0.0;
-      case 1: return -0.0;
-      case 2: return 1e6 * unit(rng);
-      case 3: return 1e-7 * unit(rng);
-      default: return unit(rng);
-    }
-  };
+  const auto entry = [&]() { return random_block_entry(rng, pick, unit, 1e6, 1e-7); };
   const auto matrix = [&]() {
     Mat3 M;
     for (int k = 0; k < 9; ++k) M.data()[k] = entry();

@@ -35,15 +35,7 @@ TEST(GatheredStiffnessProducts, EqualTheRowProductBitForBit) {
   std::mt19937 rng(18);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::uniform_int_distribution<int> pick(0, 15);
-  const auto entry = [&]() {
-    switch (pick(rng)) {
-      case 0: return 0.0;
-      case 1: return -0.0;
-      case 2: return 1e8 * unit(rng);
-      case 3: return 1e-9 * unit(rng);
-      default: return unit(rng);
-    }
-  };
+  const auto entry = [&]() { return random_block_entry(rng, pick, unit, 1e8, 1e-9); };
   int checked_rows = 0, skipped_rows = 0;
   for (int round = 0; round < 200; ++round) {
     const size_t n = 1 + static_cast<size_t>(round % 37);

@@ -1,5 +1,6 @@
-// Random upper-triangle 3x3-block sparsity patterns for the tests of the block kernels (the stiffness
-// products, the SSOR sweeps): the layout of CorotationalFem's K' rows, drawn at random.
+// Random upper-triangle 3x3-block sparsity patterns and block entries for the tests of the block
+// kernels (the stiffness products, the SSOR sweeps): the layout of CorotationalFem's K' rows, drawn
+// at random.
 #pragma once
 
 #include <cstddef>
@@ -29,6 +30,20 @@ UpperBlockPattern random_upper_block_pattern(size_t n, Rng& rng, std::uniform_in
     p.offsets.push_back(static_cast<int>(p.cols.size()));
   }
   return p;
+}
+
+/// A block entry for the kernels' bit-for-bit tests, by one draw of pick (0..15): +0, -0, big u,
+/// small u or u (u uniform on [-1, 1), one more draw): exact zeros of both signs and mixed magnitudes.
+template <class Rng>
+double random_block_entry(Rng& rng, std::uniform_int_distribution<int>& pick, std::uniform_real_distribution<double>& unit,
+                          double big, double small) {
+  switch (pick(rng)) {
+    case 0: return 0.0;
+    case 1: return -0.0;
+    case 2: return big * unit(rng);
+    case 3: return small * unit(rng);
+    default: return unit(rng);
+  }
 }
 
 }  // namespace pliant
