@@ -1320,20 +1320,16 @@ IntegrationResult CorotationalFem::advance(std::span<Vec3> x, std::span<Vec3> v,
   } else if (rhs_norm == 0.0) {
     std::fill(dv_.begin(), dv_.end(), Vec3::Zero());
   } else {
+    if (!warm_product) multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
+    // A dv_0 (from K' dv_0 where the product pass gave it) and the residual in one loop (session 18;
+    // the two loops' expressions in their order).
     double rr = 0.0;
-    if (warm_product) {
-      // A dv_0 and the residual in one loop (session 18; the two loops' expressions in their order).
-      for (size_t i = 0; i < n; ++i) {
+    for (size_t i = 0; i < n; ++i) {
+      if (warm_product) {
         q_[i] = in.fixed[i] != 0 ? Vec3::Zero() : Vec3(mass_scale * in.masses[i] * dv_[i] + stiffness_scale * q_[i]);
-        r_[i] = rhs_[i] - q_[i];
-        rr += r_[i].squaredNorm();
       }
-    } else {
-      multiply_system(dv_, q_, mass_scale, stiffness_scale, in.masses, in.fixed);
-      for (size_t i = 0; i < n; ++i) {
-        r_[i] = rhs_[i] - q_[i];
-        rr += r_[i].squaredNorm();
-      }
+      r_[i] = rhs_[i] - q_[i];
+      rr += r_[i].squaredNorm();
     }
     double residual = std::sqrt(rr) / rhs_norm;
     if (residual > 1.0) {
