@@ -8,10 +8,13 @@ unless told otherwise, and prints per build and clock the median over the rounds
 the bench's table, and the range of the step's p99 over the rounds. It also reads the host's steal
 time from /proc/stat before and after (a VM's host taking the CPU shows there).
 
-  scripts/interleaved_bench.py SCENE LABEL=BUILD_DIR [LABEL=BUILD_DIR ...]
+  scripts/interleaved_bench.py SCENE LABEL=BUILD_DIR[@THREADS] [LABEL=BUILD_DIR[@THREADS] ...]
       [--rounds 5] [--steps 600] [--warm-up 300] [--clock cpu|wall|both] [--json OUT]
 
 e.g. scripts/interleaved_bench.py assets/scenes/probe.json main=build mine=/work/wt/x/build
+     scripts/interleaved_bench.py assets/scenes/probe.json t1=build@1 t2=build@2 --clock wall
+@THREADS runs that build with `--threads THREADS` (the scene's own "threads" otherwise); thread CPU
+time counts the calling thread only, so compare thread counts by the wall clock.
 """
 import argparse
 import json
@@ -36,9 +39,11 @@ def steal_jiffies():
         return None
 
 
-def run_bench(pliant, scene, args, clock, out_json):
+def run_bench(pliant, threads, scene, args, clock, out_json):
     cmd = [pliant, "bench", scene, "--steps", str(args.steps), "--warm-up", str(args.warm_up),
            "--no-variants", "--json", out_json]
+    if threads is not None:
+        cmd += ["--threads", str(threads)]
     if clock == "cpu":
         cmd.append("--cpu-time")
     done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -54,7 +59,8 @@ def run_bench(pliant, scene, args, clock, out_json):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("scene")
-    parser.add_argument("builds", nargs="+", help="LABEL=BUILD_DIR (BUILD_DIR/apps/pliant is run)")
+    parser.add_argument("builds", nargs="+",
+                        help="LABEL=BUILD_DIR[@THREADS] (BUILD_DIR/apps/pliant is run, with --threads THREADS if given)")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--steps", type=int, default=600)
     parser.add_argument("--warm-up", type=int, default=300)
@@ -69,21 +75,25 @@ def main():
     builds = []
     for spec in args.builds:
         label, sep, build = spec.partition("=")
+        build, at, threads = build.partition("@")
         pliant = os.path.join(build, "apps", "pliant")
-        if not sep or not label or not os.access(pliant, os.X_OK):
-            sys.exit(f"interleaved_bench.py: '{spec}': expected LABEL=BUILD_DIR with an executable BUILD_DIR/apps/pliant")
-        builds.append((label, pliant))
+        if not sep or not label or not os.access(pliant, os.X_OK) or (at and not threads.isdigit()):
+            sys.exit(f"interleaved_bench.py: '{spec}': expected LABEL=BUILD_DIR[@THREADS] with an executable"
+                     " BUILD_DIR/apps/pliant and THREADS a positive whole number")
+        if at and int(threads) < 1:
+            sys.exit(f"interleaved_bench.py: '{spec}': THREADS must be >= 1")
+        builds.append((label, pliant, int(threads) if at else None))
     clocks = ["cpu", "wall"] if args.clock == "both" else [args.clock]
 
-    rounds = {(label, clock): [] for label, _ in builds for clock in clocks}
+    rounds = {(label, clock): [] for label, _, _ in builds for clock in clocks}
     steal_before = steal_jiffies()
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         out_json = os.path.join(tmp, "bench.json")
         for _ in range(args.rounds):
-            for label, pliant in builds:
+            for label, pliant, threads in builds:
                 for clock in clocks:
-                    rounds[(label, clock)].append(run_bench(pliant, args.scene, args, clock, out_json))
+                    rounds[(label, clock)].append(run_bench(pliant, threads, args.scene, args, clock, out_json))
     steal_after = steal_jiffies()
     load_after = os.getloadavg()[0]
 
