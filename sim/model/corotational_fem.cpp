@@ -321,73 +321,6 @@ void CorotationalFem::assemble_row(size_t i, const Mat3* gradients, const char* 
   }
 }
 
-// Session 19: the dirty blocks of a reuse step summed again tet by tet from cached terms instead of
-// row by row. A dirty block's terms come from every tet holding both its vertices, not only the moved
-// ones: a moved tet dirties its four diagonal blocks, each the sum of the ~17 tets around its vertex,
-// and in the probe's press the ~9% of tets that move each step are spread over the whole tissue, so
-// the row kernel recomputed nearly every tet's blocks (as many instructions as the full sum;
-// callgrind). Here each tet's ten blocks (its terms) are kept from when they were computed, valid
-// while its block_gradients_ stay; a step computes the terms of the moved tets (and of tets not
-// cached yet) in lanes, zeroes the dirty blocks and adds the cached terms of every tet that adds to
-// one of them, in ascending tet order: the same terms in the same order, every block bit for bit
-// the row kernel's. The tets adding to a dirty block are the tets around the dirty rows' vertices:
-// a dirty block (u, v) is a moved tet's, so u and v are dirty rows, and its terms come from tets at u.
-void CorotationalFem::sum_dirty_blocks_by_tet() {
-  const auto n = static_cast<size_t>(mesh_->vertex_count());
-  const auto nt = static_cast<size_t>(mesh_->tet_count());
-  double* const blocks = blocks_.data()->data();
-  for (int t : moved_tets_) {
-    for (int slot : tet_blocks_[static_cast<size_t>(t)]) {
-      if (slot >= 0) std::fill(blocks + 9 * static_cast<size_t>(slot), blocks + 9 * static_cast<size_t>(slot) + 9, 0.0);
-    }
-  }
-  // Every tet around a dirty row's vertex v adds to a dirty block: K'_vv (a moved tet at v wrote it).
-  tet_adds_.resize(nt, 0);
-  for (size_t i = 0; i < n; ++i) {
-    if (row_dirty_[i] == 0) continue;
-    const auto end = static_cast<size_t>(corner_offsets_[i + 1]);
-    for (auto c = static_cast<size_t>(corner_offsets_[i]); c < end; ++c) tet_adds_[static_cast<size_t>(corners_[c].tet)] = 1;
-  }
-  // Ascending, eight flags at a time past the runs of tets that add nothing; the flags cleared. The
-  // regular ones without cached terms (moved_tets_' were forgotten when their gradients changed) are
-  // computed.
-  if (tet_terms_valid_.size() != nt) {
-    tet_terms_valid_.assign(nt, 0);
-    tet_terms_.resize(kTetTermsSize * nt);
-  }
-  adding_tets_.clear();
-  terms_to_compute_.clear();
-  const auto take = [&](size_t k) {
-    adding_tets_.push_back(static_cast<int>(k));
-    if (tet_terms_valid_[k] == 0 && tet_block_lists_[kTetBlockListSize * k] >= 0) {
-      terms_to_compute_.push_back(static_cast<int>(k));
-      tet_terms_valid_[k] = 1;
-    }
-  };
-  size_t t = 0;
-  for (; t + 8 <= nt; t += 8) {
-    uint64_t word;
-    std::memcpy(&word, tet_adds_.data() + t, sizeof(word));
-    if (word == 0) continue;
-    for (size_t k = t; k < t + 8; ++k) {
-      if (tet_adds_[k] != 0) take(k);
-    }
-    std::memset(tet_adds_.data() + t, 0, 8);
-  }
-  for (; t < nt; ++t) {
-    if (tet_adds_[t] != 0) take(t);
-    tet_adds_[t] = 0;
-  }
-  const StiffnessRowSystem sys{blocks, block_gradients_.data()->data(), volume_.data(), tet_blocks_.data()->data(),
-                               &corners_.data()->tet, mu_, lambda_, tet_block_lists_.data()};
-  tet_stiffness_terms(sys, terms_to_compute_.data(), terms_to_compute_.size(), tet_terms_.data());
-  add_stiffness_terms(sys, tet_terms_.data(), adding_tets_.data(), adding_tets_.size(), block_dirty_.data());
-}
-
-void CorotationalFem::forget_tet_terms() {
-  tet_terms_valid_.clear();
-}
-
 void CorotationalFem::assemble_all_rows(const Mat3* gradients) {
   block_changes_tracked_ = false;  // every block written
   if (vector_kernels_) {  // each block's terms in the rows' order, ascending tet (stiffness_row_kernels.h)
@@ -451,7 +384,6 @@ void CorotationalFem::assemble_step_stiffness() {
     refresh_rotated_gradients();
     block_rotations_ = rotations_;
     block_gradients_ = rotated_gradients_;
-    forget_tet_terms();
     block_changes_tracked_ = false;  // every block written
     if (runs_parallel(executor_)) {
       assemble_rows_parallel({}, block_gradients_.data());
@@ -469,7 +401,6 @@ void CorotationalFem::assemble_step_stiffness() {
     // Threads: each tet checked on its own, the rows marked serially, the marked rows summed in
     // chunks (each row is the same function of block_gradients_ as below).
     tet_moved_.resize(nt);
-    forget_tet_terms();  // block_gradients_ change here without the cached terms
     parallel_for_chunks(executor_, nt, 256, [&](size_t begin, size_t end) {
       for (size_t t = begin; t < end; ++t) {
         tet_moved_[t] = std::abs(block_rotations_[t].dot(rotations_[t])) < min_cos;
@@ -513,10 +444,6 @@ void CorotationalFem::assemble_step_stiffness() {
   } else {
     for (int t : moved_tets_) block_gradients_[static_cast<size_t>(t)] = rotated_gradient(static_cast<size_t>(t));
   }
-  // The moved tets' cached terms are of their old gradients.
-  if (!tet_terms_valid_.empty()) {
-    for (int t : moved_tets_) tet_terms_valid_[static_cast<size_t>(t)] = 0;
-  }
   // Every tet moved (the beam's steps): every block is dirty, and the rows are summed whole without
   // flags, so none are set or cleared (session 14: the two passes over 16 slots per tet were ~2/3 of
   // this function's instructions on the beam). Otherwise only the blocks a moved tet adds to are
@@ -548,13 +475,6 @@ void CorotationalFem::assemble_step_stiffness() {
     // which assemble_all_rows writes again.
     assemble_all_rows(block_gradients_.data());
     for (size_t i = 0; i < n; ++i) rows += mesh_->vertex_tets(static_cast<int>(i)).empty() ? 0 : 1;
-  } else if (vector_kernels_) {
-    sum_dirty_blocks_by_tet();
-    for (size_t i = 0; i < n; ++i) {
-      if (row_dirty_[i] == 0) continue;
-      changed_rows_.push_back(static_cast<int>(i));  // a moved tet at i wrote K'_ii
-      ++rows;
-    }
   } else {
     for (size_t i = 0; i < n; ++i) {
       if (row_dirty_[i] == 0) continue;

@@ -230,13 +230,6 @@ class CorotationalFem final : public DeformationModel {
   /// Every vertex row of K' from `gradients`, serially: assemble_row for each i, bit for bit (by tet
   /// in AVX2 lanes where the kernels run, stiffness_row_kernels.h).
   void assemble_all_rows(const Mat3* gradients);
-  /// The reuse step's dirty blocks (block_dirty_, of the tets in moved_tets_, rows row_dirty_) zeroed and
-  /// summed again tet by tet from the tets' cached terms (tet_terms_, computed from block_gradients_
-  /// where not valid): bit for bit assemble_row with the flags over the dirty rows. Only with
-  /// vector_kernels_.
-  void sum_dirty_blocks_by_tet();
-  /// No tet's cached terms are valid (block_gradients_ changed beside sum_dirty_blocks_by_tet).
-  void forget_tet_terms();
   /// advance's K': assemble_stiffness, or only the rows around tets whose rotation left the
   /// tolerance of stiffness_rotation_tolerance_.
   void assemble_step_stiffness();
@@ -429,13 +422,6 @@ class CorotationalFem final : public DeformationModel {
   std::vector<char> tet_moved_;                  ///< per tet: its rotation left the reuse tolerance
   std::vector<int> moved_tets_;                  ///< scratch: tets the serial reuse step rebuilds, ascending
   std::vector<char> block_dirty_;                ///< scratch: per block, one of its tets is in moved_tets_ (0 between steps)
-  std::vector<char> tet_adds_;                   ///< scratch: per tet, it adds to a dirty block (0 between steps)
-  std::vector<int> adding_tets_;                 ///< scratch: the tets tet_adds_ flags, ascending
-  std::vector<int> terms_to_compute_;            ///< scratch: adding tets whose terms are computed this step
-  /// Per tet its ten K' blocks from block_gradients_ (kTetTermsSize doubles, tet_stiffness_terms),
-  /// valid where tet_terms_valid_ says so (empty: none; sum_dirty_blocks_by_tet, session 19).
-  std::vector<double> tet_terms_;
-  std::vector<char> tet_terms_valid_;
 
   // Incremental system update (session 17): with K' reuse most K' blocks keep their bits from one
   // step to the next, and so do the D_i, D_i^-1 and transposed lower blocks made from them.

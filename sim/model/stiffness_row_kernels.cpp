@@ -201,13 +201,15 @@ namespace {
 using matrix_lanes::load_entries;
 using matrix_lanes::store_entries;
 
-/// The ten blocks (terms) of each of the regular tets t[0..3], in tet_block_lists' order (the four
-/// diagonal ones a = 0..3, then the six corner pairs), 90 doubles to out[l] for tet t[l].
-__attribute__((target("avx2"), flatten)) inline void four_tets_terms(const double* gradients, const double* volume,
-                                                                     const int* lists, double mu, double lambda,
-                                                                     const size_t (&t)[4], double* const (&out)[4]) {
-  __m256d g[9];  // g[k] lane l: entry k of tet t[l]'s gradients (r_1 entries 0-2, r_2 3-5, r_3 6-8)
-  load_entries(gradients + 9 * t[0], gradients + 9 * t[1], gradients + 9 * t[2], gradients + 9 * t[3], g);
+/// The ten blocks of the regular tets t..t+3 (tet_block_lists at lists) added to their slots, tet by
+/// tet.
+__attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const double* gradients,
+                                                                          const double* volume, const int* lists,
+                                                                          double mu, double lambda, size_t t,
+                                                                          double* blocks) {
+  __m256d g[9];  // g[k] lane l: entry k of tet t + l's gradients (r_1 entries 0-2, r_2 3-5, r_3 6-8)
+  load_entries(gradients + 9 * t, gradients + 9 * (t + 1), gradients + 9 * (t + 2), gradients + 9 * (t + 3),
+               g);
   __m256d r[4][3];  // r[j][k]: component k of r_j
   for (int k = 0; k < 3; ++k) {
     r[1][k] = g[k];
@@ -215,9 +217,10 @@ __attribute__((target("avx2"), flatten)) inline void four_tets_terms(const doubl
     r[3][k] = g[6 + k];
     r[0][k] = _mm256_xor_pd(_mm256_set1_pd(-0.0), _mm256_add_pd(_mm256_add_pd(g[k], g[3 + k]), g[6 + k]));
   }
-  const __m256d V = _mm256_set_pd(volume[t[3]], volume[t[2]], volume[t[1]], volume[t[0]]);
+  const __m256d V = _mm256_loadu_pd(volume + t);
   const __m256d Vmu = _mm256_mul_pd(V, _mm256_set1_pd(mu)),
                 Vlambda = _mm256_mul_pd(V, _mm256_set1_pd(lambda));
+  alignas(32) double out[4][10 * 9];  // out[l][9 k ..]: tet t + l's block k (diagonal a = k, pair k - 4)
   __m256d e[9];
   const auto store = [&](int k) {
     store_entries(e, out[0] + 9 * k, out[1] + 9 * k, out[2] + 9 * k, out[3] + 9 * k);
@@ -240,8 +243,8 @@ __attribute__((target("avx2"), flatten)) inline void four_tets_terms(const doubl
     e[8] = _mm256_add_pd(_mm256_mul_pd(k2, x[2]), d);
     store(a);
   }
-  const int* list[4] = {lists + kTetBlockListSize * t[0], lists + kTetBlockListSize * t[1],
-                         lists + kTetBlockListSize * t[2], lists + kTetBlockListSize * t[3]};
+  const int* list[4] = {lists + kTetBlockListSize * t, lists + kTetBlockListSize * (t + 1),
+                         lists + kTetBlockListSize * (t + 2), lists + kTetBlockListSize * (t + 3)};
   const __m256i bit_lanes = _mm256_set_epi64x(list[3][0], list[2][0], list[1][0], list[0][0]);
 #pragma GCC unroll 6
   for (int p = 0; p < 6; ++p) {
@@ -269,32 +272,14 @@ __attribute__((target("avx2"), flatten)) inline void four_tets_terms(const doubl
     }
     store(4 + p);
   }
-}
-
-/// Adds a regular tet's ten terms (four_tets_terms' layout at terms) to the blocks its list names;
-/// kFlagged: only to the blocks block_dirty flags.
-template <bool kFlagged>
-PLIANT_AVX2_ONLY inline void add_tet_terms(const double* terms, const int* list, double* blocks,
-                                           const char* block_dirty) {
+  for (size_t l = 0; l < 4; ++l) {
 #pragma GCC unroll 10
-  for (int k = 0; k < 10; ++k) {
-    const int slot = list[1 + k];
-    if (kFlagged && block_dirty[slot] == 0) continue;  // kept: none of its tets moved
-    const double* o = terms + 9 * k;
-    add_to_block(blocks + 9 * static_cast<size_t>(slot), _mm256_loadu_pd(o), _mm256_loadu_pd(o + 4), o[8]);
+    for (int k = 0; k < 10; ++k) {
+      const double* o = out[l] + 9 * k;
+      add_to_block(blocks + 9 * static_cast<size_t>(list[l][1 + k]), _mm256_loadu_pd(o), _mm256_loadu_pd(o + 4),
+                   o[8]);
+    }
   }
-}
-
-/// The ten blocks of the regular tets t..t+3 added to their slots, tet by tet.
-__attribute__((target("avx2"), flatten)) inline void add_four_tets_blocks(const double* gradients,
-                                                                          const double* volume, const int* lists,
-                                                                          double mu, double lambda, size_t t,
-                                                                          double* blocks) {
-  alignas(32) double out[4][10 * 9];  // out[l][9 k ..]: tet t + l's block k (diagonal a = k, pair k - 4)
-  const size_t four[4] = {t, t + 1, t + 2, t + 3};
-  double* const outs[4] = {out[0], out[1], out[2], out[3]};
-  four_tets_terms(gradients, volume, lists, mu, lambda, four, outs);
-  for (size_t l = 0; l < 4; ++l) add_tet_terms<false>(out[l], lists + kTetBlockListSize * (t + l), blocks, nullptr);
 }
 
 }  // namespace
@@ -340,40 +325,6 @@ PLIANT_AVX2_ONLY void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t
     for (size_t l = 0; l < 4; ++l) add_tet_blocks(t + l);
   }
   for (; t < tet_count; ++t) add_tet_blocks(t);
-}
-
-// Session 19: K' reuse's partial sum from cached terms. The terms are four_tets_terms' products, the
-// values add_four_tets_blocks adds; adding them in ascending tet order repeats its sums bit for bit.
-PLIANT_AVX2_ONLY void tet_stiffness_terms(const StiffnessRowSystem& sys, const int* tets, size_t count,
-                                          double* terms) {
-  for (size_t k = 0; k < count; k += 4) {
-    // The last group padded with its first tet again (the same terms written twice).
-    const auto at = [&](size_t j) { return static_cast<size_t>(tets[j < count ? j : k]); };
-    const size_t four[4] = {at(k), at(k + 1), at(k + 2), at(k + 3)};
-    double* const outs[4] = {terms + kTetTermsSize * four[0], terms + kTetTermsSize * four[1],
-                             terms + kTetTermsSize * four[2], terms + kTetTermsSize * four[3]};
-    four_tets_terms(sys.gradients, sys.volume, sys.tet_block_lists, sys.mu, sys.lambda, four, outs);
-  }
-}
-
-PLIANT_AVX2_ONLY void add_stiffness_terms(const StiffnessRowSystem& sys, const double* terms, const int* tets,
-                                          size_t count, const char* block_dirty) {
-  for (size_t k = 0; k < count; ++k) {
-    const auto t = static_cast<size_t>(tets[k]);
-    const int* list = sys.tet_block_lists + kTetBlockListSize * t;
-    if (list[0] >= 0) {
-      add_tet_terms<true>(terms + kTetTermsSize * t, list, sys.blocks, block_dirty);
-      continue;
-    }
-    // A tet with a repeated vertex: its corners' blocks from the gradients, corner by corner, as the
-    // row kernel adds them.
-    CornerGradients r;
-    load_corner_gradients(sys.gradients + 9 * t, r);
-    const double Vmu = sys.volume[t] * sys.mu, Vlambda = sys.volume[t] * sys.lambda;
-    for (size_t a = 0; a < 4; ++a) {
-      add_corner_blocks<true>(r, a, sys.tet_blocks + 16 * t + 4 * a, Vmu, Vlambda, sys.blocks, block_dirty);
-    }
-  }
 }
 
 namespace {
@@ -489,10 +440,6 @@ void stiffness_product_pair_gathered(const StiffnessPairSystem&, const double*, 
 void sum_stiffness_row(const StiffnessRowSystem&, size_t, size_t, size_t, size_t, const char*) {}
 
 void sum_stiffness_by_tet(const StiffnessRowSystem&, size_t, size_t) {}
-
-void tet_stiffness_terms(const StiffnessRowSystem&, const int*, size_t, double*) {}
-
-void add_stiffness_terms(const StiffnessRowSystem&, const double*, const int*, size_t, const char*) {}
 
 #endif
 

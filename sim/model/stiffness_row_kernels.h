@@ -61,25 +61,6 @@ void sum_stiffness_row(const StiffnessRowSystem& sys, size_t first_block, size_t
 /// where stiffness_row_kernels_available().
 void sum_stiffness_by_tet(const StiffnessRowSystem& sys, size_t block_count, size_t tet_count);
 
-/// Doubles per tet of the cached stiffness terms: its ten K' blocks in tet_block_lists' order (the four
-/// diagonal ones, then the six corner pairs), 9 each.
-inline constexpr size_t kTetTermsSize = 90;
-
-/// Session 19 (K' reuse's partial sum): writes the terms of the tets tets[0..count), each with four
-/// distinct vertices (tet_block_lists' [0] >= 0), to terms + kTetTermsSize * t: the blocks
-/// sum_stiffness_by_tet adds for tet t, bit for bit. sys.tet_block_lists must hold tet_block_lists of
-/// sys.tet_blocks. Only where stiffness_row_kernels_available().
-void tet_stiffness_terms(const StiffnessRowSystem& sys, const int* tets, size_t count, double* terms);
-
-/// Adds, tet by tet in the order of tets[0..count) (ascending), each tet's blocks to the blocks
-/// block_dirty flags and to no other: a tet with four distinct vertices its cached terms (terms +
-/// kTetTermsSize * t, as tet_stiffness_terms wrote them from the current gradients), a tet with a
-/// repeated vertex from its gradients. With the flagged blocks zeroed and every tet that adds to one
-/// of them listed, each flagged block is bit for bit sum_stiffness_row's with the same flags (the same
-/// terms added in the same order). Only where stiffness_row_kernels_available().
-void add_stiffness_terms(const StiffnessRowSystem& sys, const double* terms, const int* tets, size_t count,
-                         const char* block_dirty);
-
 /// True when one of a tet corner's four block slots (-1: stored in the other vertex's row) is
 /// flagged in block_dirty: the corner adds to a block being summed again.
 inline bool corner_adds_to_dirty_block(const int* slots, const char* block_dirty) {

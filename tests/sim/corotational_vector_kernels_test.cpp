@@ -83,14 +83,8 @@ TEST(VectorStiffnessRows, AssembleTheScalarBlocksBitForBit) {
 // diagonal block, and is listed as two corners of the row, so that the row kernel adds what the tet
 // loop adds, in its order), with random gradients over 12 decades, signs and signed zeros, the blocks starting
 // as garbage: true when every block is equal bit for bit (and not all zero, so not vacuously).
-struct BlockPattern {
-  std::vector<int> row_offsets{0}, cols, corners, tet_blocks, lists;
-  std::vector<size_t> corner_offsets{0};
-};
-
-BlockPattern block_pattern(const std::vector<TetIndices>& tets, size_t n) {
+bool by_tet_equals_by_row(const std::vector<TetIndices>& tets, size_t n, unsigned seed) {
   const size_t nt = tets.size();
-  BlockPattern p;
   std::vector<std::vector<int>> vertex_tets(n), neighbors(n);
   for (size_t t = 0; t < nt; ++t) {
     for (int v : tets[t]) {
@@ -101,6 +95,8 @@ BlockPattern block_pattern(const std::vector<TetIndices>& tets, size_t n) {
       }
     }
   }
+  std::vector<int> row_offsets{0}, cols, corners;
+  std::vector<size_t> corner_offsets{0};
   for (size_t v = 0; v < n; ++v) {
     std::vector<int> row = neighbors[v];
     std::sort(row.begin(), row.end());
@@ -109,133 +105,53 @@ BlockPattern block_pattern(const std::vector<TetIndices>& tets, size_t n) {
     for (int t : vertex_tets[v]) {
       for (int a = 0; a < 4; ++a) {  // every corner of v (a repeated vertex has two, ascending)
         if (tets[static_cast<size_t>(t)][static_cast<size_t>(a)] != static_cast<int>(v)) continue;
-        p.corners.push_back(t);
-        p.corners.push_back(a);
+        corners.push_back(t);
+        corners.push_back(a);
       }
     }
-    p.cols.insert(p.cols.end(), row.begin(), row.end());
-    p.row_offsets.push_back(static_cast<int>(p.cols.size()));
-    p.corner_offsets.push_back(p.corners.size() / 2);
+    cols.insert(cols.end(), row.begin(), row.end());
+    row_offsets.push_back(static_cast<int>(cols.size()));
+    corner_offsets.push_back(corners.size() / 2);
   }
-  p.tet_blocks.resize(16 * nt);
+  std::vector<int> tet_blocks(16 * nt);
   for (size_t t = 0; t < nt; ++t) {
     const auto& tet = tets[t];
     for (size_t i = 0; i < 4; ++i) {
-      const auto b = p.cols.begin() + p.row_offsets[static_cast<size_t>(tet[i])];
-      const auto e = p.cols.begin() + p.row_offsets[static_cast<size_t>(tet[i]) + 1];
+      const auto b = cols.begin() + row_offsets[static_cast<size_t>(tet[i])];
+      const auto e = cols.begin() + row_offsets[static_cast<size_t>(tet[i]) + 1];
       for (size_t j = 0; j < 4; ++j) {
-        p.tet_blocks[16 * t + 4 * i + j] =
-            tet[j] < tet[i] ? -1 : static_cast<int>(std::find(b, e, tet[j]) - p.cols.begin());
+        tet_blocks[16 * t + 4 * i + j] =
+            tet[j] < tet[i] ? -1 : static_cast<int>(std::find(b, e, tet[j]) - cols.begin());
       }
     }
   }
-  p.lists.resize(kTetBlockListSize * nt);
-  tet_block_lists(p.tet_blocks.data(), nt, p.lists.data());
-  return p;
-}
-
-/// Random entries over 12 decades, both signs and signed zeros.
-struct RandomEntries {
-  explicit RandomEntries(unsigned seed) : rng(seed) {}
-  double operator()() {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-6, 6), pick(0, 19);
+  const auto entry = [&] {
     const int k = pick(rng);
     if (k == 0) return 0.0;
     if (k == 1) return -0.0;
     return mantissa(rng) * std::pow(10.0, exponent(rng));
-  }
-  double volume() { return std::abs(mantissa(rng)) * std::pow(10.0, exponent(rng)); }
-  std::mt19937 rng;
-  std::uniform_real_distribution<double> mantissa{-1.0, 1.0};
-  std::uniform_int_distribution<int> exponent{-6, 6}, pick{0, 19};
-};
-
-// The full K' summed tet by tet (sum_stiffness_by_tet) against the row by row kernel (sum_stiffness_row
-// over every row) on the model's pattern for `tets` over n vertices (CorotationalFem's constructor:
-// upper rows, diagonal first, then ascending; a tet's repeated vertex maps both of its slots to the
-// diagonal block, and is listed as two corners of the row, so that the row kernel adds what the tet
-// loop adds, in its order), with random gradients over 12 decades, signs and signed zeros, the blocks starting
-// as garbage: true when every block is equal bit for bit (and not all zero, so not vacuously).
-bool by_tet_equals_by_row(const std::vector<TetIndices>& tets, size_t n, unsigned seed) {
-  const size_t nt = tets.size();
-  BlockPattern p = block_pattern(tets, n);
-  RandomEntries entry(seed);
+  };
   std::vector<double> gradients(9 * nt), volume(nt);
   for (double& g : gradients) g = entry();
-  for (double& V : volume) V = entry.volume();
-  std::vector<double> by_row(9 * p.cols.size()), by_tet(9 * p.cols.size());
+  for (double& V : volume) V = std::abs(mantissa(rng)) * std::pow(10.0, exponent(rng));
+  std::vector<double> by_row(9 * cols.size()), by_tet(9 * cols.size());
   for (double& b : by_row) b = entry();
   for (double& b : by_tet) b = entry();
-  StiffnessRowSystem sys{by_row.data(), gradients.data(), volume.data(), p.tet_blocks.data(), p.corners.data(),
-                         3.3e4, 3e5, p.lists.data()};
+  std::vector<int> lists(kTetBlockListSize * nt);
+  tet_block_lists(tet_blocks.data(), nt, lists.data());
+  StiffnessRowSystem sys{by_row.data(), gradients.data(), volume.data(), tet_blocks.data(), corners.data(),
+                         3.3e4, 3e5, lists.data()};
   for (size_t i = 0; i < n; ++i) {
-    sum_stiffness_row(sys, static_cast<size_t>(p.row_offsets[i]), static_cast<size_t>(p.row_offsets[i + 1]),
-                      p.corner_offsets[i], p.corner_offsets[i + 1]);
+    sum_stiffness_row(sys, static_cast<size_t>(row_offsets[i]), static_cast<size_t>(row_offsets[i + 1]),
+                      corner_offsets[i], corner_offsets[i + 1]);
   }
   sys.blocks = by_tet.data();
-  sum_stiffness_by_tet(sys, p.cols.size(), nt);
+  sum_stiffness_by_tet(sys, cols.size(), nt);
   return std::memcmp(by_row.data(), by_tet.data(), by_row.size() * sizeof(double)) == 0 &&
          std::count_if(by_row.begin(), by_row.end(), [](double b) { return b != 0.0; }) > 0;
-}
-
-// Session 19, K' reuse's partial sum: from a full K', random tets "move" (new random gradients) and
-// their blocks are flagged. Reference: the row kernel with the flags over the rows of the moved tets'
-// vertices (the model's row path). Against it: the flagged blocks zeroed, the terms of every regular
-// tet computed (tet_stiffness_terms, in a shuffled order and in short lists: the padded last group)
-// and the cached terms of the tets around those rows added (add_stiffness_terms), ascending. Every
-// block equal bit for bit (the unflagged ones untouched in both), over `rounds` rounds of moves.
-bool terms_equal_flagged_rows(const std::vector<TetIndices>& tets, size_t n, unsigned seed, int rounds) {
-  const size_t nt = tets.size();
-  BlockPattern p = block_pattern(tets, n);
-  RandomEntries entry(seed);
-  std::vector<double> gradients(9 * nt), volume(nt);
-  for (double& g : gradients) g = entry();
-  for (double& V : volume) V = entry.volume();
-  std::vector<double> by_row(9 * p.cols.size()), by_terms, terms(kTetTermsSize * nt, 0.0);
-  StiffnessRowSystem sys{by_row.data(), gradients.data(), volume.data(), p.tet_blocks.data(), p.corners.data(),
-                         3.3e4, 3e5, p.lists.data()};
-  sum_stiffness_by_tet(sys, p.cols.size(), nt);
-  by_terms = by_row;
-  std::uniform_int_distribution<size_t> any_tet(0, nt - 1);
-  bool equal = true;
-  size_t flagged_total = 0;
-  for (int round = 0; round < rounds && equal; ++round) {
-    std::vector<char> moved(nt, 0), dirty(p.cols.size(), 0), row_dirty(n, 0);
-    const size_t moves = 1 + any_tet(entry.rng) % (nt / 4);
-    for (size_t k = 0; k < moves; ++k) moved[any_tet(entry.rng)] = 1;
-    for (size_t t = 0; t < nt; ++t) {
-      if (moved[t] == 0) continue;
-      for (size_t k = 0; k < 9; ++k) gradients[9 * t + k] = entry();
-      for (int j = 0; j < 16; ++j) {
-        if (p.tet_blocks[16 * t + j] >= 0) dirty[static_cast<size_t>(p.tet_blocks[16 * t + j])] = 1;
-      }
-      for (int v : tets[t]) row_dirty[static_cast<size_t>(v)] = 1;
-    }
-    flagged_total += static_cast<size_t>(std::count(dirty.begin(), dirty.end(), 1));
-    sys.blocks = by_row.data();
-    for (size_t i = 0; i < n; ++i) {
-      if (row_dirty[i] == 0) continue;
-      sum_stiffness_row(sys, static_cast<size_t>(p.row_offsets[i]), static_cast<size_t>(p.row_offsets[i + 1]),
-                        p.corner_offsets[i], p.corner_offsets[i + 1], dirty.data());
-    }
-    for (size_t k = 0; k < dirty.size(); ++k) {
-      if (dirty[k] != 0) std::fill(by_terms.begin() + static_cast<long>(9 * k), by_terms.begin() + static_cast<long>(9 * k + 9), 0.0);
-    }
-    std::vector<int> regular, adding;
-    for (size_t t = 0; t < nt; ++t) {
-      if (p.lists[kTetBlockListSize * t] >= 0) regular.push_back(static_cast<int>(t));
-      bool around = false;
-      for (int v : tets[t]) around = around || row_dirty[static_cast<size_t>(v)] != 0;
-      if (around) adding.push_back(static_cast<int>(t));
-    }
-    std::shuffle(regular.begin(), regular.end(), entry.rng);
-    for (size_t k = 0; k < regular.size(); k += 7) {  // lists of up to 7: full groups and a padded one
-      tet_stiffness_terms(sys, regular.data() + k, std::min<size_t>(7, regular.size() - k), terms.data());
-    }
-    sys.blocks = by_terms.data();
-    add_stiffness_terms(sys, terms.data(), adding.data(), adding.size(), dirty.data());
-    equal = std::memcmp(by_row.data(), by_terms.data(), by_row.size() * sizeof(double)) == 0;
-  }
-  return equal && flagged_total > 0;
 }
 
 // Session 14: on a box mesh's pattern, and a vertex in no tet (its diagonal block only).
@@ -261,24 +177,6 @@ TEST(VectorStiffnessRows, SummedByTetInLanesEqualsRowByRowForAnyCornerOrderBitFo
         << "regular, drop " << drop;
     for (size_t t = 5; t < tets.size(); t += 37) tets[t][t % 4] = tets[t][(t + 1) % 4];  // a repeated vertex
     EXPECT_TRUE(by_tet_equals_by_row(tets, static_cast<size_t>(box->vertex_count()), 30 + drop))
-        << "degenerate, drop " << drop;
-  }
-}
-
-// Session 19: K' reuse's partial sum from cached terms against the row kernel with the flags, on the
-// box pattern with shuffled corners (regular tets) and with repeated vertices (their blocks from the
-// gradients, in their place in the ascending order), tet counts not a multiple of four.
-TEST(VectorStiffnessRows, DirtyBlocksFromCachedTermsEqualTheFlaggedRowKernelBitForBit) {
-  if (!stiffness_row_kernels_available()) GTEST_SKIP() << "no AVX2 on this CPU";
-  const TetMeshPtr box = make_box_mesh({Vec3(0.6, 0.1, 0.1), 9, 2, 2});
-  std::mt19937 rng(19);
-  for (const size_t drop : {0, 3}) {
-    std::vector<TetIndices> tets(box->tets().begin(), box->tets().end() - static_cast<long>(drop));
-    for (auto& tet : tets) std::shuffle(tet.begin(), tet.end(), rng);
-    EXPECT_TRUE(terms_equal_flagged_rows(tets, static_cast<size_t>(box->vertex_count()), 40 + drop, 30))
-        << "regular, drop " << drop;
-    for (size_t t = 5; t < tets.size(); t += 37) tets[t][t % 4] = tets[t][(t + 1) % 4];  // a repeated vertex
-    EXPECT_TRUE(terms_equal_flagged_rows(tets, static_cast<size_t>(box->vertex_count()), 50 + drop, 30))
         << "degenerate, drop " << drop;
   }
 }
