@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -465,6 +466,63 @@ void BM_TeschnerStep1ms(benchmark::State& state) {
   state.counters["substeps"] = substeps;
 }
 BENCHMARK(BM_TeschnerStep1ms)->Unit(benchmark::kMillisecond);
+
+// K' reuse with a few percent of the tets moving in a step, spread over the body (session 19): the
+// probe's press, where ~9% of its tissue's 4,320 tets leave the rotation tolerance every step and
+// those steps set the probe's p99. The probe's tissue (box 100 x 100 x 40 mm, 12 x 12 x 5 cells,
+// E = 5 kPa, nu 0.45, probe.json's CG tolerance 1e-3, base fixed) with K' built at a bent pose A;
+// the timed advance starts at pose B, A with range(0) random vertices moved 0.3 mm (every tet
+// around them leaves the 1e-3 rad tolerance), from a snapshot restored outside the timing, so
+// every iteration rebuilds the same tets' blocks. The time is the whole advance (rotations, K',
+// SSOR data, CG, update); rows says how many K' rows it summed again. Session 19 tried two caches
+// of per-tet K' terms against it; both ran slower (docs/deformation-models.md "Session 19").
+void BM_StiffnessReuseSpread(benchmark::State& state) {
+  const TetMeshPtr mesh = make_box_mesh({Vec3(0.1, 0.1, 0.04), 12, 12, 5});
+  Material material;
+  material.young_modulus = 5e3;
+  material.poisson_ratio = 0.45;
+  material.density = 1000.0;
+  material.mass_damping = 2.0;
+  material.stiffness_damping = 0.01;
+  ModelSettings settings;
+  settings.accuracy.solver_tolerance = 1e-3;
+  CorotationalFem model(mesh, material, settings);
+  const std::vector<double> masses = mesh->lumped_masses(material.density);
+  std::vector<Vec3> x = mesh->rest_positions();
+  std::vector<char> fixed(x.size(), 0);
+  for (size_t i = 0; i < x.size(); ++i) fixed[i] = x[i].z() < -0.02 + 1e-9 ? 1 : 0;
+  const std::vector<Vec3> external(x.size(), Vec3::Zero());
+  const IntegrationInput input{masses, fixed, external, 1e-3};
+  for (auto& p : x) {
+    if (fixed[&p - x.data()] == 0) p += Vec3(0.05 * (p.z() + 0.02) * p.y(), 0.0, -0.2 * p.x() * p.x());  // bent
+  }
+  std::vector<Vec3> v(x.size(), Vec3::Zero());
+  std::vector<Vec3> b = x;
+  model.advance(x, v, input);  // K' built at the bent pose (the rotations there)
+  std::copy(b.begin(), b.end(), x.begin());
+  std::fill(v.begin(), v.end(), Vec3::Zero());
+  model.advance(x, v, input);  // again from there: no tet moved, the caches made (a running body's state)
+  std::mt19937 rng(19);
+  std::uniform_int_distribution<size_t> vertex(0, b.size() - 1);
+  std::uniform_real_distribution<double> shift(-3e-4, 3e-4);
+  for (int k = 0; k < state.range(0); ++k) {
+    const size_t i = vertex(rng);
+    if (fixed[i] == 0) b[i] += Vec3(shift(rng), shift(rng), shift(rng));
+  }
+  const CorotationalFem snapshot = model;
+  const std::vector<Vec3> v0 = v;
+  for (auto _ : state) {
+    state.PauseTiming();
+    model = snapshot;
+    std::copy(b.begin(), b.end(), x.begin());
+    std::copy(v0.begin(), v0.end(), v.begin());
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(model.advance(x, v, input));
+  }
+  state.counters["rows"] = static_cast<double>(model.reassembled_rows());
+  state.counters["tets"] = mesh->tet_count();
+}
+BENCHMARK(BM_StiffnessReuseSpread)->ArgName("moved_vertices")->Arg(6)->Arg(24)->Arg(100)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace pliant
