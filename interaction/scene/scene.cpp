@@ -52,7 +52,8 @@ Material read_material(const JsonReader& j) {
 
 ModelSettings read_model_settings(const JsonReader& j) {
   j.expect_keys({"max_solver_iterations", "solver_tolerance", "distance_stiffness", "volume_stiffness",
-                 "area_stiffness", "distance_damping", "fused_sweeps", "coarse_aggregate_size"});
+                 "area_stiffness", "distance_damping", "fused_sweeps", "coarse_aggregate_size",
+                 "stiffness_rotation_tolerance"});
   ModelSettings s;
   if (auto it = j.find("max_solver_iterations")) {
     s.accuracy.max_solver_iterations = it->integer();
@@ -68,6 +69,8 @@ ModelSettings read_model_settings(const JsonReader& j) {
     s.coarse_aggregate_size = it->integer();
     if (s.coarse_aggregate_size < 0) it->fail(InputErrorKind::bad_value, "expected an integer >= 0 (0: off)");
   }
+  s.stiffness_rotation_tolerance =
+      j.non_negative_number_or("stiffness_rotation_tolerance", s.stiffness_rotation_tolerance);
   return s;
 }
 

@@ -68,9 +68,6 @@ enum class Preconditioner {
   ssor,          ///< symmetric block Gauss-Seidel, Eisenstat's form (default with the assembled K')
 };
 
-/// Default rotation tolerance (rad) of K' reuse between steps (docs/deformation-models.md "K' reuse").
-inline constexpr double kDefaultStiffnessRotationTolerance = 1e-3;
-
 class CorotationalFem final : public DeformationModel {
  public:
   /// Precomputes inverse rest shapes; `product` selects how K' is applied in CG.

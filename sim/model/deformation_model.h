@@ -28,6 +28,10 @@ struct ModelAccuracy {
 };
 
 /// Model settings from the scene. Fields a model does not use are ignored by it.
+/// Default rotation tolerance (rad) of the corotational FEM's K' reuse between steps
+/// (docs/deformation-models.md "K' reuse between steps").
+inline constexpr double kDefaultStiffnessRotationTolerance = 1e-3;
+
 struct ModelSettings {
   ModelAccuracy accuracy;
   /// Teschner model stiffnesses (N/m-like constants of the constraint energies, E = k C^2 / 2).
@@ -43,6 +47,10 @@ struct ModelSettings {
   /// translations of boxes of about this many free vertices (sim/model/coarse_correction.h; runs
   /// the exact sweeps). 0: off, the solve before session 13 bit for bit.
   int coarse_aggregate_size = 0;
+  /// Corotational FEM: a tet's K' blocks are kept from the rotation they were built from until its
+  /// rotation is more than this (rad) away from it; only the matrix of the linear solve changes, never
+  /// the forces. 0: K' from the current rotations every step, exact.
+  double stiffness_rotation_tolerance = kDefaultStiffnessRotationTolerance;
 };
 
 /// What one step of a model did.

@@ -100,5 +100,43 @@ TEST(SceneFormat, ModelSettingsCoarseAggregateSizeReachesTheModel) {
   }
 }
 
+// "stiffness_rotation_tolerance" (session 19): default the library's 1e-3 rad, a value (0 included:
+// K' from the current rotations every step) reaches the model, and a negative or non-number value
+// names its JSON path.
+TEST(SceneFormat, ModelSettingsStiffnessRotationToleranceReachesTheModel) {
+  nlohmann::json j = probe_coarse_json();
+  size_t tissue = 0;
+  while (tissue < j["bodies"].size() && j["bodies"][tissue].value("kinematic", false)) ++tissue;
+  ASSERT_LT(tissue, j["bodies"].size());
+  const Scene default_scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_EQ(default_scene.bodies[tissue].model_settings.stiffness_rotation_tolerance,
+            kDefaultStiffnessRotationTolerance);
+  const SceneInstance default_instance = instantiate_scene(default_scene);
+  const CorotationalFem* fem = first_fem(default_instance);
+  ASSERT_NE(fem, nullptr);
+  EXPECT_EQ(fem->stiffness_rotation_tolerance(), kDefaultStiffnessRotationTolerance);
+
+  for (const double tolerance : {0.0, 0.01}) {
+    j["bodies"][tissue]["model_settings"]["stiffness_rotation_tolerance"] = tolerance;
+    const Scene scene = parse_scene(j, "probe_coarse.json", ".");
+    EXPECT_EQ(scene.bodies[tissue].model_settings.stiffness_rotation_tolerance, tolerance);
+    const SceneInstance instance = instantiate_scene(scene);
+    fem = first_fem(instance);
+    ASSERT_NE(fem, nullptr);
+    EXPECT_EQ(fem->stiffness_rotation_tolerance(), tolerance);
+  }
+
+  for (const nlohmann::json& bad : {nlohmann::json(-1e-3), nlohmann::json("0.01"), nlohmann::json(true)}) {
+    j["bodies"][tissue]["model_settings"]["stiffness_rotation_tolerance"] = bad;
+    try {
+      parse_scene(j, "probe_coarse.json", ".");
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const InputError& e) {
+      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/stiffness_rotation_tolerance";
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace pliant
