@@ -345,10 +345,11 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     VertexContact& r = result(k);
     const Vec3& p = x[static_cast<size_t>(r.vertex)];
     const int exclude = self ? r.vertex : -1;
-    if (layer_[static_cast<size_t>(k)] < 0) {
+    const bool enclosed = layer_[static_cast<size_t>(k)] < 0;
+    SurfacePoint nearest;
+    if (enclosed) {
       // Beyond the paper: nearest point of the penetrated surface (docs/penetration-depth.md).
       if (walk) ensure_bvh(surface);
-      SurfacePoint nearest;
       if (!surface.bvh.nearest_point(p, exclude, nearest)) {
         ++stats_.dropped;
         continue;
@@ -365,6 +366,21 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       r.penetration_depth = 0.0;
       ++stats_.clamped_negative_depths;
     }
+    // Session 19: an enclosed point's ray aims at its nearest surface point c, at t = d, and nothing
+    // of the surface lies nearer; a hit beyond d (plus rounding) means the ray slipped past c
+    // between the triangles around it (c on an edge or a vertex) and left the body elsewhere. Then c
+    // itself is the contact point, as the contract x + d r requires.
+    const double overshoot = enclosed ? r.penetration_depth + 1e-9 * (r.penetration_depth + p.cwiseAbs().maxCoeff() +
+                                                                        surface.mesh->mean_edge_length())
+                                      : std::numeric_limits<double>::max();
+    const auto take_nearest = [&] {
+      ++stats_.enclosed_ray_overshoots;
+      r.triangle_source = ContactTriangleSource::nearest_point_fallback;
+      r.contact_triangle = nearest.triangle;
+      r.contact_barycentric = nearest.barycentric;
+      r.contact_point = nearest.point;
+      has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+    };
     // Contact triangle: first hit of the ray x + t r, t >= 0; else the nearest surface triangle.
     if (walk && r.penetration_direction.squaredNorm() > 0.5) {
       // The walk from p's stage-1 tet finds the first crossing from p: the ray query's answer.
@@ -374,6 +390,10 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
                                     options_.tet_walk_max_steps, h, &steps,
                                     walk_edges ? &surface.planes : nullptr);
       stats_.walk_tets += steps;
+      if (hit && h.t > overshoot) {
+        take_nearest();
+        continue;
+      }
       if (hit) {
         ++stats_.walked_rays;
         if (options_.tet_walk_verify) {
@@ -405,6 +425,10 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     const auto hit = find_contact_triangle(surface.bvh, p, r.penetration_direction, exclude, t_bound);
     if (!hit) {
       ++stats_.dropped;
+      continue;
+    }
+    if (hit->source == ContactTriangleSource::ray && hit->point.t > overshoot) {
+      take_nearest();
       continue;
     }
     r.triangle_source = hit->source;

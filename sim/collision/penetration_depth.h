@@ -78,6 +78,7 @@ struct PenetrationDepthStats {
   int walk_ray_fallbacks = 0;       ///< contact rays whose walk failed (answered by the BVH)
   long long walk_mismatches = 0;    ///< tet_walk_verify: walked answers (triangle or t) unlike the BVH's
   long long walk_tets = 0;          ///< tets visited by all walks (edges and rays)
+  int enclosed_ray_overshoots = 0;  ///< enclosed points whose ray slipped past their nearest point (session 19)
 };
 
 class PenetrationDepthSolver {

@@ -10,10 +10,12 @@
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 #endif
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <new>
+#include <random>
 #include <map>
 
 #include "sim/collision/penetration_depth.h"
@@ -154,6 +156,56 @@ TEST(PenetrationDepth, EnclosedBoxUsesNearestSurfacePoint) {
     EXPECT_TRUE(along_a_nearest_face) << c.penetration_direction.transpose();
     EXPECT_NEAR((p + c.depth_vector() - c.contact_point).norm(), 0.0, 1e-12);
   }
+}
+
+// Session 19: an enclosed point whose nearest surface point is a vertex of the penetrated surface.
+// The block's top-face vertex (0, 0, 1) is dented down, so the points right under it are nearer to
+// that vertex than to any face, and a small box below it, wholly inside the block, has only
+// enclosed-fallback points. The contact triangle is found by the ray x + t r towards the nearest
+// point; a ray through a vertex exactly can slip between the triangles around it by rounding and
+// leave the body far away (in the probe's slide a probe vertex 3e-5 m inside the tissue got a
+// contact triangle on the tissue's bottom face, 31 mm away: a residual overlap of 31 mm in the
+// report). Closed form: the contact point is x + d r, the nearest surface point (the dent vertex
+// for the box's top corner), over 400 random dents and offsets.
+TEST(PenetrationDepth, EnclosedPointUnderADentedVertexKeepsItsNearestPoint) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> dent(0.05, 0.2), lateral(-1e-9, 1e-9), gap(1e-9, 1e-3), angle(-0.3, 0.3);
+  int checked = 0, at_the_vertex = 0, overshoots = 0;
+  Scene s;
+  s.probe_mesh = make_box_mesh({Vec3(0.02, 0.02, 0.02), 1, 1, 1});
+  int top = -1;
+  for (int i = 0; i < s.block_mesh->vertex_count(); ++i) {
+    if ((s.block_x[static_cast<size_t>(i)] - Vec3(0, 0, 1)).norm() < 1e-12) top = i;
+  }
+  ASSERT_GE(top, 0);
+  for (int trial = 0; trial < 400; ++trial) {
+    s.block_x = s.block_mesh->rest_positions();
+    const double delta = dent(rng);
+    s.block_x[static_cast<size_t>(top)].z() -= delta;
+    const Vec3 corner(lateral(rng), lateral(rng), 1.0 - delta - gap(rng));
+    const Quat tilt(Eigen::AngleAxisd(angle(rng), Vec3(1, 0, 0)) * Eigen::AngleAxisd(angle(rng), Vec3(0, 1, 0)));
+    // The box hangs from `corner`: its highest corner there, the rest below it.
+    s.probe_x = posed(s.probe_mesh->rest_positions(), tilt, Vec3::Zero());
+    const Vec3 top_corner = *std::max_element(s.probe_x.begin(), s.probe_x.end(),
+                                              [](const Vec3& a, const Vec3& b) { return a.z() < b.z(); });
+    for (Vec3& x : s.probe_x) x += corner - top_corner;
+    s.run();
+    overshoots += s.solver.stats().enclosed_ray_overshoots;
+    ASSERT_EQ(s.contacts.size(), static_cast<size_t>(s.probe_mesh->vertex_count())) << "trial " << trial;
+    for (const auto& c : s.contacts) {
+      ASSERT_EQ(c.depth_source, DepthSource::enclosed_fallback);
+      const Vec3& p = s.probe_x[static_cast<size_t>(c.vertex)];
+      EXPECT_LE((p + c.depth_vector() - c.contact_point).norm(), 1e-9 * (1.0 + c.penetration_depth))
+          << "trial " << trial << ", depth " << c.penetration_depth << ", contact point "
+          << c.contact_point.transpose() << ", triangle " << c.contact_triangle;
+      ++checked;
+      if ((c.contact_point - s.block_x[static_cast<size_t>(top)]).norm() < 1e-12) ++at_the_vertex;
+    }
+  }
+  EXPECT_EQ(checked, 400 * 8);
+  EXPECT_GT(overshoots, 0);  // some rays did slip past their point: the case this test is about
+  EXPECT_GT(at_the_vertex, 300);  // the top corners' nearest point is the dent vertex
+  RecordProperty("contacts_at_the_dent_vertex", std::to_string(at_the_vertex));
 }
 
 // Largest change of depth vectors between consecutive poses of a sweep of the probe by `step`.
