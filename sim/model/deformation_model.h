@@ -27,11 +27,11 @@ struct ModelAccuracy {
   double solver_tolerance = 1e-6;   ///< relative CG residual at which to stop
 };
 
-/// Model settings from the scene. Fields a model does not use are ignored by it.
 /// Default rotation tolerance (rad) of the corotational FEM's K' reuse between steps
 /// (docs/deformation-models.md "K' reuse between steps").
 inline constexpr double kDefaultStiffnessRotationTolerance = 1e-3;
 
+/// Model settings from the scene. Fields a model does not use are ignored by it.
 struct ModelSettings {
   ModelAccuracy accuracy;
   /// Teschner model stiffnesses (N/m-like constants of the constraint energies, E = k C^2 / 2).
