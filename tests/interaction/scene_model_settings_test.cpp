@@ -1,9 +1,12 @@
-// The body's "model_settings" object reads fused_sweeps and coarse_aggregate_size (docs/scene-format.md): the boolean reaches
+// The body's "model_settings" object reads fused_sweeps, coarse_aggregate_size and
+// stiffness_rotation_tolerance (docs/scene-format.md), each reaching the model; fused_sweeps reaches
 // the corotational FEM's SSOR sweeps (the AVX2/FMA kernels where the CPU has them, or the exact
 // sweeps), and a value of the wrong type is an error naming its JSON path.
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <initializer_list>
+#include <string>
 #include <nlohmann/json.hpp>
 
 #include "interaction/scene/scene.h"
@@ -27,6 +30,21 @@ const CorotationalFem* first_fem(const SceneInstance& instance) {
     if (const auto* fem = dynamic_cast<const CorotationalFem*>(body.model.get())) return fem;
   }
   return nullptr;
+}
+
+/// Each of `bad` as the tissue's model_settings[key] is an InputError naming its JSON path.
+void expect_errors_name_the_path(nlohmann::json j, size_t tissue, const std::string& key,
+                                 std::initializer_list<nlohmann::json> bad) {
+  for (const nlohmann::json& value : bad) {
+    j["bodies"][tissue]["model_settings"][key] = value;
+    try {
+      parse_scene(j, "probe_coarse.json", ".");
+      ADD_FAILURE() << "no error for " << key << " = " << value;
+    } catch (const InputError& e) {
+      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/" + key;
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(SceneFormat, ModelSettingsFusedSweepsReachesTheModel) {
@@ -54,16 +72,7 @@ TEST(SceneFormat, ModelSettingsFusedSweepsReachesTheModel) {
   EXPECT_FALSE(fem->fused_sweeps());
 
   // A non-boolean names its path.
-  for (const nlohmann::json& bad : {nlohmann::json(1), nlohmann::json("on")}) {
-    j["bodies"][tissue]["model_settings"]["fused_sweeps"] = bad;
-    try {
-      parse_scene(j, "probe_coarse.json", ".");
-      ADD_FAILURE() << "no error for " << bad;
-    } catch (const InputError& e) {
-      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/fused_sweeps";
-      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    }
-  }
+  expect_errors_name_the_path(j, tissue, "fused_sweeps", {nlohmann::json(1), nlohmann::json("on")});
 }
 
 // "coarse_aggregate_size" (session 13): default 0 (no coarse correction), an integer reaches the
@@ -88,16 +97,8 @@ TEST(SceneFormat, ModelSettingsCoarseAggregateSizeReachesTheModel) {
   ASSERT_NE(fem, nullptr);
   EXPECT_EQ(fem->coarse_aggregate_size(), 56);
 
-  for (const nlohmann::json& bad : {nlohmann::json(-1), nlohmann::json(2.5), nlohmann::json("56")}) {
-    j["bodies"][tissue]["model_settings"]["coarse_aggregate_size"] = bad;
-    try {
-      parse_scene(j, "probe_coarse.json", ".");
-      ADD_FAILURE() << "no error for " << bad;
-    } catch (const InputError& e) {
-      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/coarse_aggregate_size";
-      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    }
-  }
+  expect_errors_name_the_path(j, tissue, "coarse_aggregate_size",
+                              {nlohmann::json(-1), nlohmann::json(2.5), nlohmann::json("56")});
 }
 
 // "stiffness_rotation_tolerance" (session 19): default the library's 1e-3 rad, a value (0 included:
@@ -126,16 +127,8 @@ TEST(SceneFormat, ModelSettingsStiffnessRotationToleranceReachesTheModel) {
     EXPECT_EQ(fem->stiffness_rotation_tolerance(), tolerance);
   }
 
-  for (const nlohmann::json& bad : {nlohmann::json(-1e-3), nlohmann::json("0.01"), nlohmann::json(true)}) {
-    j["bodies"][tissue]["model_settings"]["stiffness_rotation_tolerance"] = bad;
-    try {
-      parse_scene(j, "probe_coarse.json", ".");
-      ADD_FAILURE() << "no error for " << bad;
-    } catch (const InputError& e) {
-      const std::string path = "/bodies/" + std::to_string(tissue) + "/model_settings/stiffness_rotation_tolerance";
-      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    }
-  }
+  expect_errors_name_the_path(j, tissue, "stiffness_rotation_tolerance",
+                              {nlohmann::json(-1e-3), nlohmann::json("0.01"), nlohmann::json(true)});
 }
 
 }  // namespace
