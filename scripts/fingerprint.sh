@@ -20,7 +20,8 @@ if [ "${1:-}" = "--compare" ]; then
     if cmp -s <(cut -d, -f1-17,24 "$a/$run/steps.csv") <(cut -d, -f1-17,24 "$b/$run/steps.csv"); then
       steps=identical
     else
-      steps="DIFFERENT from row $(cmp <(cut -d, -f1-17,24 "$a/$run/steps.csv") <(cut -d, -f1-17,24 "$b/$run/steps.csv") | awk '{print $NF}')"
+      # (cmp exits 1 on a difference: under pipefail the substitution would end the script silently)
+      steps="DIFFERENT from row $( (cmp <(cut -d, -f1-17,24 "$a/$run/steps.csv") <(cut -d, -f1-17,24 "$b/$run/steps.csv") || true) | awk '{print $NF}')"
       status=1
     fi
     echo "$run: tool_forces.csv $forces, steps.csv (non-timing columns) $steps"

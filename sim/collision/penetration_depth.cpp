@@ -373,13 +373,16 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
     const double overshoot = enclosed ? r.penetration_depth + 1e-9 * (r.penetration_depth + p.cwiseAbs().maxCoeff() +
                                                                         surface.mesh->mean_edge_length())
                                       : std::numeric_limits<double>::max();
+    const auto take = [&](ContactTriangleSource source, const SurfacePoint& point) {
+      r.triangle_source = source;
+      r.contact_triangle = point.triangle;
+      r.contact_barycentric = point.barycentric;
+      r.contact_point = point.point;
+      has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+    };
     const auto take_nearest = [&] {
       ++stats_.enclosed_ray_overshoots;
-      r.triangle_source = ContactTriangleSource::nearest_point_fallback;
-      r.contact_triangle = nearest.triangle;
-      r.contact_barycentric = nearest.barycentric;
-      r.contact_point = nearest.point;
-      has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+      take(ContactTriangleSource::nearest_point_fallback, nearest);
     };
     // Contact triangle: first hit of the ray x + t r, t >= 0; else the nearest surface triangle.
     if (walk && r.penetration_direction.squaredNorm() > 0.5) {
@@ -403,11 +406,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
             ++stats_.walk_mismatches;
           }
         }
-        r.triangle_source = ContactTriangleSource::ray;
-        r.contact_triangle = h.triangle;
-        r.contact_barycentric = h.barycentric;
-        r.contact_point = h.point;
-        has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+        take(ContactTriangleSource::ray, h);
         continue;
       }
       ++stats_.walk_ray_fallbacks;
@@ -431,7 +430,6 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
       take_nearest();
       continue;
     }
-    r.triangle_source = hit->source;
     if (hit->source == ContactTriangleSource::nearest_point_fallback) {
       ++stats_.ray_misses;
       if (r.penetration_direction.squaredNorm() < 0.5) {  // no direction at all: towards the hit
@@ -440,10 +438,7 @@ void PenetrationDepthSolver::solve_group(std::span<const CollisionBody> bodies,
         r.penetration_direction = len > 1e-300 ? Vec3(e / len) : smoothed_normal(surface, hit->point);
       }
     }
-    r.contact_triangle = hit->point.triangle;
-    r.contact_barycentric = hit->point.barycentric;
-    r.contact_point = hit->point.point;
-    has_result_[static_cast<size_t>(group[static_cast<size_t>(k)])] = 1;
+    take(hit->source, hit->point);
   }
 }
 
