@@ -97,11 +97,11 @@ CorotationalFem::CorotationalFem(TetMeshPtr mesh, const Material& material, cons
       beta_(material.stiffness_damping),
       accuracy_(settings.accuracy),
       product_(product),
+      stiffness_rotation_tolerance_(settings.stiffness_rotation_tolerance),
       fused_sweeps_(settings.fused_sweeps && fused_sweeps_available()),
       vector_kernels_(stiffness_row_kernels_available() && rotation_batch_avx2_available()),
       avx512_lanes_(rotation_batch_avx512_available()),
       coarse_aggregate_size_(settings.coarse_aggregate_size) {
-  stiffness_rotation_tolerance_ = settings.stiffness_rotation_tolerance;
   const auto& X = mesh_->rest_positions();
   const auto nt = static_cast<size_t>(mesh_->tet_count());
   rest_shape_inverse_.resize(nt);

@@ -322,7 +322,7 @@ class CorotationalFem final : public DeformationModel {
   std::vector<Mat3> blocks_;
   bool stiffness_assembled_ = false;
   // K' reuse (assemble_step_stiffness): the rotation and rotated gradients each tet's blocks hold.
-  double stiffness_rotation_tolerance_ = kDefaultStiffnessRotationTolerance;  ///< rad; 0: no reuse
+  double stiffness_rotation_tolerance_ = kDefaultStiffnessRotationTolerance;  ///< rad; 0: no reuse (the constructor: ModelSettings)
   std::vector<Quat> block_rotations_;
   std::vector<Mat3> block_gradients_;
   std::vector<char> row_dirty_;                ///< scratch: rows to sum again

@@ -14,9 +14,9 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <new>
 #include <random>
-#include <map>
 
 #include "sim/collision/penetration_depth.h"
 #include "sim/collision/spatial_hash.h"
