@@ -330,8 +330,10 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
     if (!runner.tick(&profiler)) break;
   }
   // The scene's "haptics" limits (clamp, rate limit, tick rate), as `pliant run --realtime` uses.
-  const HapticLimits& limits = scene.haptics.limits;
-  SceneHaptics haptics(clock, runner, limits, options.seconds, options.realtime_priority);
+  HapticSettings settings = scene.haptics;
+  if (options.haptic_threads) settings.threads = *options.haptic_threads;
+  const HapticLimits& limits = settings.limits;
+  SceneHaptics haptics(clock, runner, settings, options.seconds, options.realtime_priority);
   StepTimeStats step;
   long over_budget = 0;
   const double t_start = clock.now();
@@ -371,7 +373,8 @@ nlohmann::json haptic_bench_scene(const Scene& scene, const BenchOptions& option
       << std::setw(8) << haptics.stats().ticks << std::setw(9) << ms(timing.period_jitter, 0.5) << std::setw(9)
       << ms(timing.period_jitter, 0.99) << std::setw(9) << ms(timing.period_jitter, 1.0) << std::setw(9)
       << ms(timing.lateness, 0.99) << std::setw(7) << timing.deadline_misses << std::setw(4)
-      << (timing.realtime_priority ? "rt" : "-") << std::setprecision(0) << std::setw(7)
+      << (timing.realtime_priority ? "rt" : "-") << std::setw(4) << timing.ticks_by_thread.size()
+      << std::setprecision(0) << std::setw(7)
       << steal_ms << (runner.fault().empty() ? "" : "  FAILED: " + runner.fault())
       << "\n"
       << std::flush;
@@ -399,8 +402,8 @@ int run_haptic_bench(const BenchOptions& options, std::ostream& log) {
   log << std::left << std::setw(14) << "scene" << std::right << std::setw(7) << "verts" << std::setw(8) << "steps"
       << std::setw(9) << "step50" << std::setw(9) << "step99" << std::setw(8) << ">budget" << std::setw(8)
       << "ticks" << std::setw(9) << "jit50" << std::setw(9) << "jit99" << std::setw(9) << "jitmax" << std::setw(9)
-      << "late99" << std::setw(7) << "misses" << std::setw(4) << "pri" << std::setw(7) << "steal"
-      << "   (ms; verts: tissue; jit: |tick period - 1/rate|, late: start - slot; steal: host, both CPUs, -1 unknown)\n"
+      << "late99" << std::setw(7) << "misses" << std::setw(4) << "pri" << std::setw(4) << "thr" << std::setw(7) << "steal"
+      << "   (ms; verts: tissue; jit: |tick period - 1/rate|, late: start - slot; thr: haptic threads; steal: host, both CPUs, -1 unknown)\n"
       << std::flush;
   nlohmann::json rows = nlohmann::json::array();
   bool failed = false;

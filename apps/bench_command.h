@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "interaction/haptic_output_filter.h"
 #include "interaction/step_time_stats.h"
 
 namespace pliant {
@@ -31,6 +32,7 @@ struct BenchOptions {
   bool haptic = false;                 ///< the haptic benchmark instead (run_haptic_bench)
   double seconds = 10.0;               ///< haptic benchmark: wall-clock seconds per scene
   bool realtime_priority = true;       ///< haptic benchmark: ask SCHED_FIFO for the haptic thread
+  std::optional<int> haptic_threads;   ///< haptic benchmark: override the scenes' "haptics" "threads"
   std::optional<int> threads;          ///< override the scenes' "threads" (>= 1; docs/threads.md)
   /// Under `valgrind --tool=callgrind --instr-atstart=no`: instrument the timed steps only
   /// (apps/callgrind_window.h), so a piled scene's steps get a firm instruction count.

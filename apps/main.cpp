@@ -114,10 +114,17 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   bench_cmd->add_flag("--no-rt-priority", bench_no_rt, "Haptic benchmark: do not ask SCHED_FIFO for the haptic thread");
+  int bench_haptic_threads = 1;
+  auto* bench_haptic_threads_opt =
+      bench_cmd->add_option("--haptic-threads", bench_haptic_threads,
+                            "Haptic benchmark: threads that wake for every tick, a CPU each (overrides the scenes' "
+                            "\"haptics\" \"threads\")")
+          ->check(CLI::Range(1, pliant::kMaxHapticThreads));
   bench_cmd->callback([&] {
     if (!bench_contact.empty()) bench.contact = bench_contact;
     bench.friction_variants = !bench_no_variants;
     bench.realtime_priority = !bench_no_rt;
+    if (bench_haptic_threads_opt->count() > 0) bench.haptic_threads = bench_haptic_threads;
     if (bench_threads_opt->count() > 0) bench.threads = bench_threads;
     exit_code = pliant::run_bench(bench, std::cout);
   });

@@ -74,7 +74,8 @@ nlohmann::json haptic_summary_json(const HapticTiming& timing, const HapticStats
           {"deadline_misses", timing.deadline_misses},
           {"faults", stats.faults},
           {"limited_ticks", stats.limited},
-          {"realtime_priority", timing.realtime_priority}};
+          {"realtime_priority", timing.realtime_priority},
+          {"ticks_by_thread", timing.ticks_by_thread}};
 }
 
 int run_scene(const RunOptions& options, std::ostream& log) {
@@ -172,7 +173,7 @@ int run_scene(const RunOptions& options, std::ostream& log) {
     std::unique_ptr<SceneHaptics> haptics;
     if (options.haptics && scene.haptics.enabled && !runner.instance().instruments.empty()) {
       const double expected = static_cast<double>(steps) * std::max(dt, loop_settings.period()) * 4.0 + 1.0;
-      haptics = std::make_unique<SceneHaptics>(clock, runner, scene.haptics.limits, expected, options.realtime_priority);
+      haptics = std::make_unique<SceneHaptics>(clock, runner, scene.haptics, expected, options.realtime_priority);
       haptics->start();
     }
     // ticks.csv: one row per tick run, for load tests and replays of a session's timing

@@ -105,7 +105,7 @@ void BM_HapticJitterBesideProbeScene(benchmark::State& state) {
   HapticTiming timing;
   long ticks = 0;
   for (auto _ : state) {
-    SceneHaptics haptics(clock, runner, HapticLimits{}, seconds, /*realtime_priority=*/true);
+    SceneHaptics haptics(clock, runner, HapticSettings{}, seconds, /*realtime_priority=*/true);
     const double t_start = clock.now();
     haptics.start();
     while (clock.now() - t_start < seconds && runner.tick()) haptics.refresh(runner, clock.now());

@@ -3,7 +3,7 @@
 namespace pliant {
 
 HapticSettings parse_haptic_settings(const JsonReader& j) {
-  j.expect_keys({"enabled", "max_force", "max_force_rate", "rate_hz"});
+  j.expect_keys({"enabled", "max_force", "max_force_rate", "rate_hz", "threads"});
   HapticSettings s;
   HapticLimits& l = s.limits;
   s.enabled = j.boolean_or("enabled", s.enabled);
@@ -13,6 +13,10 @@ HapticSettings parse_haptic_settings(const JsonReader& j) {
   if (l.rate_hz > 10000.0) j.at("rate_hz").fail(InputErrorKind::bad_value, "expected at most 10000 Hz");
   const double default_rate = l.max_delta * 1000.0;  // N/s: 0.05 N per tick at 1 kHz
   l.max_delta = j.positive_number_or("max_force_rate", default_rate) / l.rate_hz;
+  s.threads = j.integer_or("threads", s.threads);
+  if (s.threads < 1 || s.threads > kMaxHapticThreads) {
+    j.at("threads").fail(InputErrorKind::bad_value, "expected 1 to " + std::to_string(kMaxHapticThreads));
+  }
   return s;
 }
 

@@ -17,14 +17,21 @@ struct HapticLimits {
 };
 
 /// The scene's optional "haptics" object (docs/scene-format.md): whether `pliant run --realtime`
-/// runs the haptic thread, and the limits of the force it sends.
+/// runs the haptic thread, the limits of the force it sends, and how many threads tick it.
 struct HapticSettings {
   bool enabled = true;  ///< false: no haptic thread (as --no-haptics)
   HapticLimits limits;  ///< max_delta = max_force_rate / rate_hz
+  /// Threads that wake for every tick, each on its own CPU; the first awake sends it
+  /// (haptic_thread.h): a tick is missed only if every one of them is stalled.
+  int threads = 1;
 };
 
-/// Reads {"enabled", "max_force" (N), "max_force_rate" (N/s), "rate_hz"} (all optional); the rate
-/// limit per tick is max_force_rate / rate_hz. Errors name the JSON path.
+/// Threads of a haptic loop: at most this many (a tick is microseconds; more wake-ups only cost).
+inline constexpr int kMaxHapticThreads = 8;
+
+/// Reads {"enabled", "max_force" (N), "max_force_rate" (N/s), "rate_hz", "threads" (1 to
+/// kMaxHapticThreads)} (all optional); the rate limit per tick is max_force_rate / rate_hz.
+/// Errors name the JSON path.
 HapticSettings parse_haptic_settings(const JsonReader& j);
 
 class HapticOutputFilter {

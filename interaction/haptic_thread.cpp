@@ -4,6 +4,7 @@
 #include <sched.h>
 #include <sys/prctl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -35,16 +36,28 @@ void HapticThread::reserve_timing(long ticks) {
   tick_duration_.reserve(n);
 }
 
+void HapticThread::set_thread_count(int threads) { thread_count_ = std::clamp(threads, 1, kMaxHapticThreads); }
+
 void HapticThread::start() {
   if (running_.load()) return;
   stop_requested_ = false;
   running_ = true;
-  thread_ = std::thread([this] { loop(); });
+  realtime_priority_granted_ = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ticks_by_thread_.assign(static_cast<size_t>(thread_count_), 0);
+  }
+  origin_ = clock_.now();
+  last_slot_ = -1;
+  for (int i = 0; i < thread_count_; ++i) threads_.emplace_back([this, i] { loop(i); });
 }
 
 void HapticThread::stop() {
   stop_requested_ = true;
-  if (thread_.joinable()) thread_.join();
+  for (std::thread& t : threads_) {
+    if (t.joinable()) t.join();
+  }
+  threads_.clear();
   running_ = false;
 }
 
@@ -76,45 +89,67 @@ Vec3 HapticThread::tick(double t) {
   return first;
 }
 
-void HapticThread::loop() {
-  // Timer slack of 1 ns (default 50 us) and, if asked and allowed, a real-time priority: both
-  // only shorten the wake-up delay; nothing depends on them.
+namespace {
+
+// Pins the calling thread to the index-th CPU the process may run on (wrapping around); false if
+// there is only one such CPU or the kernel refuses.
+bool pin_to_cpu(int index) {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (sched_getaffinity(0, sizeof allowed, &allowed) != 0) return false;
+  std::vector<int> cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c) {
+    if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
+  }
+  if (cpus.size() < 2) return false;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(cpus[static_cast<size_t>(index) % cpus.size()], &one);
+  return pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0;
+}
+
+}  // namespace
+
+void HapticThread::loop(int index) {
+  // Timer slack of 1 ns (default 50 us), if asked and allowed a real-time priority, and with
+  // several threads a CPU each: all only shorten or spread the wake-up delay; nothing depends on them.
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+  if (thread_count_ > 1) pin_to_cpu(index);
   if (realtime_priority_requested_) {
     sched_param param{};
     param.sched_priority = 10;
-    realtime_priority_granted_ = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0) ++realtime_priority_granted_;
   }
   const double period = 1.0 / limits_.rate_hz;
-  const double origin = clock_.now();
   long slot = 0;
-  double previous_start = 0.0;
-  long previous_slot = -2;  // no previous tick: slot 0 has no period
   while (!stop_requested_.load()) {
-    const double scheduled = origin + static_cast<double>(slot) * period;
+    const double scheduled = origin_ + static_cast<double>(slot) * period;
     clock_.sleep_until(scheduled);
-    const double start = clock_.now();
-    tick(start);
-    const double end = clock_.now();
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      lateness_.add(start - scheduled);
-      tick_duration_.add(end - start);
-      if (previous_slot == slot - 1) period_jitter_.add(std::abs(start - previous_start - period));
-      if (end > scheduled + period) ++late_ticks_;
-    }
-    previous_start = start;
-    previous_slot = slot;
-    // Skip slots that passed while this tick ran (no bursts after a stall).
-    const auto due = static_cast<long>(std::floor((clock_.now() - origin) / period));
-    ++slot;
-    if (due > slot) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stats_.skipped_ticks += due - slot;
-      slot = due;
-    }
+    claim_and_tick(index, slot, scheduled);
+    // The next slot, or, if this thread was stalled past it, the latest slot already due (the
+    // slots in between are dropped, not sent in a burst; claim_and_tick counts them).
+    const auto due = static_cast<long>(std::floor((clock_.now() - origin_) / period));
+    slot = std::max(slot + 1, due);
   }
-  running_ = false;
+}
+
+void HapticThread::claim_and_tick(int index, long slot, double scheduled) {
+  std::lock_guard<std::mutex> claim(claim_mutex_);
+  if (slot <= last_slot_) return;  // another thread was awake first
+  const double start = clock_.now();
+  tick(start);
+  const double end = clock_.now();
+  const double period = 1.0 / limits_.rate_hz;
+  std::lock_guard<std::mutex> lock(mutex_);
+  lateness_.add(start - scheduled);
+  tick_duration_.add(end - start);
+  // Pairs across skipped slots are not periods (they are misses).
+  if (last_slot_ >= 0 && last_slot_ == slot - 1) period_jitter_.add(std::abs(start - last_start_ - period));
+  if (end > scheduled + period) ++late_ticks_;
+  stats_.skipped_ticks += slot - last_slot_ - 1;  // the first claim is slot 0
+  ++ticks_by_thread_[static_cast<size_t>(index)];
+  last_slot_ = slot;
+  last_start_ = start;
 }
 
 HapticStats HapticThread::stats() const {
@@ -132,7 +167,8 @@ HapticTiming HapticThread::timing() const {
   t.late_ticks = late_ticks_;
   t.skipped_ticks = stats_.skipped_ticks;
   t.deadline_misses = late_ticks_ + stats_.skipped_ticks;
-  t.realtime_priority = realtime_priority_granted_.load();
+  t.realtime_priority = thread_count_ > 0 && realtime_priority_granted_.load() == thread_count_;
+  t.ticks_by_thread = ticks_by_thread_;
   return t;
 }
 

@@ -4,6 +4,14 @@
 // it (clamp, rate limit, NaN -> zero + fault) and hand it to the output callback. tick() runs one
 // tick synchronously, for deterministic tests.
 //
+// Several threads (set_thread_count): each is pinned to a CPU of its own and wakes for every slot;
+// the first to take the slot's claim ticks it, the others find it taken and sleep to the next. A
+// tick is then late only if every thread's CPU is stalled at once. Why: on a virtual machine the
+// host wakes an idle virtual CPU, or takes a busy one away, for milliseconds at a time (session
+// 20: cyclictest alone, nothing else running, saw 3-11 wake-ups >= 1 ms late in 10 s), and those
+// stalls hit the two CPUs mostly at different times. The cost is each extra thread's wake-up and
+// its spin before the slot (100 us per period) on the CPU it shares with the physics.
+//
 // Tick timing (measured only on the thread, through the clock): for slot k due at s_k = origin +
 // k T, the tick starts at a_k (after the sleep) and ends at e_k.
 //   - lateness     a_k - s_k;
@@ -53,7 +61,8 @@ struct HapticTiming {
   long late_ticks = 0;          ///< ticks that ended after their slot was over
   long skipped_ticks = 0;       ///< slots dropped after a stall
   long deadline_misses = 0;     ///< late_ticks + skipped_ticks
-  bool realtime_priority = false;  ///< SCHED_FIFO was granted to the thread
+  bool realtime_priority = false;  ///< SCHED_FIFO was granted to every thread
+  std::vector<long> ticks_by_thread;  ///< ticks each thread sent (one entry per thread)
 };
 
 class HapticThread {
@@ -82,12 +91,15 @@ class HapticThread {
   /// Asks for SCHED_FIFO (priority 10) on the thread at start(); if refused, the thread runs at
   /// normal priority and timing().realtime_priority says so. Off by default.
   void set_realtime_priority(bool on) { realtime_priority_requested_ = on; }
+  /// Threads that wake for every tick (before start(); 1 by default, at most kMaxHapticThreads):
+  /// see the note above.
+  void set_thread_count(int threads);
   /// Preallocates timing samples for this many ticks (the loop then does not allocate).
   void reserve_timing(long ticks);
 
-  /// Starts the thread (ticks at limits.rate_hz on the clock).
+  /// Starts the thread(s) (ticks at limits.rate_hz on the clock).
   void start();
-  /// Stops and joins it (also done by the destructor).
+  /// Stops and joins them (also done by the destructor).
   void stop();
   bool running() const { return running_.load(); }
 
@@ -101,7 +113,10 @@ class HapticThread {
   size_t channel_count() const { return channels_.size(); }
 
  private:
-  void loop();
+  /// Thread `index`: sleeps to each slot and claims it.
+  void loop(int index);
+  /// Ticks `slot` (due at `scheduled`) unless another thread has; records its timing.
+  void claim_and_tick(int index, long slot, double scheduled);
 
   Clock& clock_;
   std::vector<Channel> channels_;
@@ -112,11 +127,18 @@ class HapticThread {
   HapticStats stats_;
   StepTimeStats lateness_, period_jitter_, tick_duration_;
   long late_ticks_ = 0;
+  std::vector<long> ticks_by_thread_;
   bool realtime_priority_requested_ = false;
-  std::atomic<bool> realtime_priority_granted_{false};
+  int thread_count_ = 1;
+  std::atomic<int> realtime_priority_granted_{0};  ///< threads that got SCHED_FIFO
   std::atomic<bool> running_{false};
   std::atomic<bool> stop_requested_{false};
-  std::thread thread_;
+  std::vector<std::thread> threads_;
+  // The slot grid and the claim, shared by the threads.
+  double origin_ = 0.0;            ///< clock time of slot 0
+  std::mutex claim_mutex_;         ///< held while a slot is claimed and ticked
+  long last_slot_ = -1;            ///< the last slot ticked (-1: none yet)
+  double last_start_ = 0.0;        ///< when it started
 };
 
 }  // namespace pliant

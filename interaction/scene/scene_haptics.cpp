@@ -29,9 +29,10 @@ Vec3 DeviceTrack::torque() const {
   return torque_;
 }
 
-SceneHaptics::SceneHaptics(Clock& clock, const SceneRunner& runner, const HapticLimits& limits,
+SceneHaptics::SceneHaptics(Clock& clock, const SceneRunner& runner, const HapticSettings& settings,
                            double expected_seconds, bool realtime_priority)
     : clock_(clock) {
+  const HapticLimits& limits = settings.limits;
   const size_t n = runner.instance().instruments.size();
   std::vector<HapticThread::Channel> channels;
   for (size_t i = 0; i < n; ++i) {
@@ -50,6 +51,7 @@ SceneHaptics::SceneHaptics(Clock& clock, const SceneRunner& runner, const Haptic
                                              records_.push_back({t, c, f, torque});
                                            });
   thread_->set_realtime_priority(realtime_priority);
+  thread_->set_thread_count(settings.threads);
   thread_->reserve_timing(ticks);
 }
 

@@ -59,10 +59,10 @@ class DeviceTrack {
 
 class SceneHaptics {
  public:
-  /// One channel per instrument of `runner` (its positions at construction seed the tracks).
-  /// `expected_seconds` preallocates records and timing samples. `realtime_priority`: ask for
-  /// SCHED_FIFO on the haptic thread (reported in timing()).
-  SceneHaptics(Clock& clock, const SceneRunner& runner, const HapticLimits& limits, double expected_seconds,
+  /// One channel per instrument of `runner` (its positions at construction seed the tracks), at
+  /// `settings`' limits and wait. `expected_seconds` preallocates records and timing samples.
+  /// `realtime_priority`: ask for SCHED_FIFO on the haptic thread (reported in timing()).
+  SceneHaptics(Clock& clock, const SceneRunner& runner, const HapticSettings& settings, double expected_seconds,
                bool realtime_priority);
   ~SceneHaptics();
   SceneHaptics(const SceneHaptics&) = delete;

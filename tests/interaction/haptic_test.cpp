@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <chrono>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -192,6 +193,43 @@ TEST(HapticThread, RunsOnItsOwnThreadAndStops) {
   EXPECT_EQ(bad.load(), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(5));
   EXPECT_EQ(haptics.stats().ticks, ticks);  // stopped means stopped
+}
+
+// Two threads wake for every slot: each slot is sent once (the first awake claims it), in order,
+// and every send is counted against the thread that made it. Timing-free: a slow host only lowers
+// the counts, never breaks the bounds.
+TEST(HapticThread, SeveralThreadsSendEachSlotOnceAndInOrder) {
+  HapticForceModel model;
+  SteadyClock clock;
+  HapticLimits limits;
+  limits.rate_hz = 2000.0;
+  std::mutex mutex;
+  std::vector<double> sent;
+  sent.reserve(4096);
+  HapticThread haptics(clock, model, limits, [] { return Vec3::Zero(); },
+                       [&](double t, const Vec3&) {
+                         std::lock_guard<std::mutex> lock(mutex);
+                         sent.push_back(t);
+                       });
+  haptics.set_thread_count(2);
+  const double t_start = clock.now();
+  haptics.start();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  haptics.stop();
+  const double t_stop = clock.now();
+  const HapticTiming timing = haptics.timing();
+  const HapticStats stats = haptics.stats();
+  ASSERT_EQ(timing.ticks_by_thread.size(), 2u);
+  EXPECT_EQ(timing.ticks_by_thread[0] + timing.ticks_by_thread[1], stats.ticks);
+  ASSERT_EQ(static_cast<long>(sent.size()), stats.ticks);
+  ASSERT_GT(stats.ticks, 0);
+  for (size_t i = 1; i < sent.size(); ++i) EXPECT_LT(sent[i - 1], sent[i]) << "send " << i;
+  // Slots sent plus slots dropped cannot exceed the slots that came due while running; a slot
+  // sent by both threads would be sent twice (about twice as many sends).
+  const double slots_due = (t_stop - t_start) * limits.rate_hz + 1.0;
+  EXPECT_LE(static_cast<double>(stats.ticks), slots_due);
+  EXPECT_GE(stats.skipped_ticks, 0);
+  EXPECT_LE(static_cast<double>(stats.ticks + stats.skipped_ticks), slots_due);
 }
 
 }  // namespace

@@ -43,10 +43,10 @@ TEST(SceneHaptics, SendsThePhysicsForceAtARefreshAndTheLinearModelBetween) {
   Scene scene = load_scene(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/probe_coarse.json");
   SceneRunner runner(scene);
   VirtualClock clock;
-  HapticLimits limits;
-  limits.max_force = 100.0;
-  limits.max_delta = 100.0;  // no limiting: what is sent is the model
-  SceneHaptics haptics(clock, runner, limits, 1.0, false);
+  HapticSettings settings;
+  settings.limits.max_force = 100.0;
+  settings.limits.max_delta = 100.0;  // no limiting: what is sent is the model
+  SceneHaptics haptics(clock, runner, settings, 1.0, false);
   const double physics_wall = 3e-3;  // s of clock per physics step (slower than the haptic rate)
   Vec3 previous = runner.readings()[0].position;
   int checked = 0;
@@ -156,12 +156,14 @@ TEST(SceneFormat, HapticsSectionSetsTheDeviceLimits) {
   EXPECT_EQ(plain.haptics.limits.max_force, 10.0);
   EXPECT_NEAR(plain.haptics.limits.max_delta, 0.05, 1e-15);
   EXPECT_EQ(plain.haptics.limits.rate_hz, 1000.0);
-  j["haptics"] = {{"enabled", false}, {"max_force", 2.5}, {"max_force_rate", 20.0}, {"rate_hz", 500.0}};
+  EXPECT_EQ(plain.haptics.threads, 1);
+  j["haptics"] = {{"enabled", false}, {"max_force", 2.5}, {"max_force_rate", 20.0}, {"rate_hz", 500.0}, {"threads", 2}};
   const Scene set = parse_scene(j, "probe_coarse.json", ".");
   EXPECT_FALSE(set.haptics.enabled);
   EXPECT_EQ(set.haptics.limits.max_force, 2.5);
   EXPECT_NEAR(set.haptics.limits.max_delta, 20.0 / 500.0, 1e-15);  // N per tick
   EXPECT_EQ(set.haptics.limits.rate_hz, 500.0);
+  EXPECT_EQ(set.haptics.threads, 2);
 
   auto error_of = [](const nlohmann::json& haptics) {
     nlohmann::json scene = probe_coarse_json();
@@ -177,6 +179,10 @@ TEST(SceneFormat, HapticsSectionSetsTheDeviceLimits) {
   EXPECT_NE(error_of({{"max_force_rate", 0.0}}).find("/haptics/max_force_rate"), std::string::npos);
   EXPECT_NE(error_of({{"rate_hz", 20000.0}}).find("/haptics/rate_hz"), std::string::npos);
   EXPECT_NE(error_of({{"enabled", "yes"}}).find("/haptics/enabled"), std::string::npos);
+  for (const nlohmann::json& bad : {nlohmann::json(0), nlohmann::json(kMaxHapticThreads + 1), nlohmann::json(1.5),
+                                    nlohmann::json("two")}) {
+    EXPECT_NE(error_of({{"threads", bad}}).find("/haptics/threads"), std::string::npos) << bad;
+  }
   EXPECT_NE(error_of({{"max_delta", 0.1}}).find("/haptics/max_delta"), std::string::npos);  // unknown key
   EXPECT_NE(error_of(nlohmann::json::array()).find("/haptics"), std::string::npos);
 }
@@ -195,7 +201,9 @@ TEST(RealtimeRun, SendsAtMostTheScenesMaximumForceAtTheScenesRate) {
   const auto dir = std::filesystem::temp_directory_path() / "pliant_scene_haptics_limits_test";
   std::filesystem::remove_all(dir);
   const double max_force = 0.05, max_force_rate = 5.0;  // N, N/s: 0.005 N per 1 kHz tick
-  const std::string scene = scene_with_haptics(dir, {{"max_force", max_force}, {"max_force_rate", max_force_rate}});
+  // Two haptic threads: the limits hold across sends made by either (one filter, one claim per tick).
+  const std::string scene =
+      scene_with_haptics(dir, {{"max_force", max_force}, {"max_force_rate", max_force_rate}, {"threads", 2}});
   const auto out = dir / "out";
   const auto result = testing::run_cli("run " + scene + " --realtime --no-rt-priority --steps 300 --no-frames --quiet --out " +
                                        out.string());
@@ -219,6 +227,9 @@ TEST(RealtimeRun, SendsAtMostTheScenesMaximumForceAtTheScenesRate) {
   // The probe pushes harder than 0.05 N within 300 steps, so the limits acted.
   EXPECT_GT(summary.at("haptics").at("limited_ticks").get<long>(), 0);
   EXPECT_GT(largest, 0.0);
+  const auto by_thread = summary.at("haptics").at("ticks_by_thread").get<std::vector<long>>();
+  ASSERT_EQ(by_thread.size(), 2u);
+  EXPECT_EQ(by_thread[0] + by_thread[1], summary.at("haptics").at("ticks").get<long>());
 
   // "enabled": false: --realtime runs no haptic thread.
   const std::string off = scene_with_haptics(dir, {{"enabled", false}});
