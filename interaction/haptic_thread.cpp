@@ -167,7 +167,7 @@ HapticTiming HapticThread::timing() const {
   t.late_ticks = late_ticks_;
   t.skipped_ticks = stats_.skipped_ticks;
   t.deadline_misses = late_ticks_ + stats_.skipped_ticks;
-  t.realtime_priority = thread_count_ > 0 && realtime_priority_granted_.load() == thread_count_;
+  t.realtime_priority = realtime_priority_granted_.load() == thread_count_;
   t.ticks_by_thread = ticks_by_thread_;
   return t;
 }
