@@ -1,6 +1,7 @@
 #include "sim/collision/tet_walk.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "sim/collision/triangle_queries.h"
@@ -68,8 +69,9 @@ TetWalkResult walk(const TetMesh& mesh, std::span<const Vec3> x, int start, cons
     const TetFacePlanes::Tet& t = planes_of(tet);
     if (!t.usable) return TetWalkResult::failed;
     const TetIndices& v = tets[static_cast<size_t>(tet)];
-    int best_face = -1;
-    double best_s = std::numeric_limits<double>::infinity();
+    int best_face = -1, best_surface = -1;
+    double best_s = std::numeric_limits<double>::infinity(), best_surface_s = best_s;
+    const auto& tet_face_triangles = face_triangles[static_cast<size_t>(tet)];
     for (int k = 0; k < 4; ++k) {
       if (k == entry) continue;
       const Vec3& n = t.normal[static_cast<size_t>(k)];
@@ -81,11 +83,29 @@ TetWalkResult walk(const TetMesh& mesh, std::span<const Vec3> x, int start, cons
         best_s = sk;
         best_face = k;
       }
+      if (tet_face_triangles[static_cast<size_t>(k)] >= 0 && sk < best_surface_s) {
+        best_surface_s = sk;
+        best_surface = k;
+      }
     }
     if (best_face < 0) return TetWalkResult::failed;
+    // Session 20: where the line leaves through a surface vertex or edge, an interior face and a
+    // surface face tie, and rounding can pick the interior one and send the walk on through the
+    // body, out of its far side (PenetrationDepth.EnclosedPointUnderADentedVertexKeepsItsNearestPoint:
+    // one such ray in its first 3,200). A surface face
+    // within a rounding margin of the best exit is taken instead; the exit's hit is then
+    // Moller-Trumbore's around that triangle, or the walk fails and the BVH answers.
+    if (best_surface >= 0 && best_surface != best_face) {
+      const Vec3& xi = x[static_cast<size_t>(v[static_cast<size_t>(TetMesh::kTetFaceCorners[best_face][0])])];
+      const double margin = 1e-9 * (std::abs(best_s) + (a - xi).norm() / d.norm());
+      if (best_surface_s <= best_s + margin) {
+        best_face = best_surface;
+        best_s = best_surface_s;
+      }
+    }
     s = std::max(s, best_s);
     if (s > s_max) return TetWalkResult::beyond_end;
-    const int triangle = face_triangles[static_cast<size_t>(tet)][static_cast<size_t>(best_face)];
+    const int triangle = tet_face_triangles[static_cast<size_t>(best_face)];
     if (triangle >= 0) {
       exit.triangle = triangle;
       exit.tet = tet;

@@ -7,6 +7,9 @@
 // f_k(s) = n_k.(a - x_i) + s n_k.d grows through face k where n_k.d > 0, and the line leaves the tet
 // at the smallest such root s_k = -n_k.(a - x_i) / n_k.d (ties: the smaller k), never before the
 // parameter at which it entered (clamped, so s never decreases); the face it entered by is skipped.
+// Session 20: a surface face within a rounding margin of that root is taken instead (a line leaving
+// through a surface vertex or edge ties faces there, and rounding could pick an interior one and
+// walk on through the body).
 // A tet whose signed volume is not clearly positive (flat or inverted by the deformation), a tet
 // with no face to leave by, or more than `max_steps` tets end the walk as failed: callers then use
 // the exact surface query (SurfaceBvh). The hit itself is computed as SurfaceBvh computes it

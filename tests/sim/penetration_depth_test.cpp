@@ -166,11 +166,17 @@ TEST(PenetrationDepth, EnclosedBoxUsesNearestSurfacePoint) {
 // leave the body far away (in the probe's slide a probe vertex 3e-5 m inside the tissue got a
 // contact triangle on the tissue's bottom face, 31 mm away: a residual overlap of 31 mm in the
 // report). Closed form: the contact point is x + d r, the nearest surface point (the dent vertex
-// for the box's top corner), over 400 random dents and offsets.
+// for the box's top corner), over 4,000 random dents and offsets.
+// Session 20: the slips are the tet walk's (with the BVH answering the rays: none in 160,000). Where
+// the ray leaves through the vertex, faces tie and rounding could send the walk through an interior
+// face; its tie rule (tet_walk.cpp) now takes a surface face within a rounding margin: in the first
+// 400 trials the one ray that slipped before no longer does. Rays shallower than the dent's walls
+// graze the vertex and re-enter the body beyond it: the walk, which follows crossings, goes on
+// (the later trials have a few), and the overshoot check keeps their contact point.
 TEST(PenetrationDepth, EnclosedPointUnderADentedVertexKeepsItsNearestPoint) {
   std::mt19937 rng(19);
   std::uniform_real_distribution<double> dent(0.05, 0.2), lateral(-1e-9, 1e-9), gap(1e-9, 1e-3), angle(-0.3, 0.3);
-  int checked = 0, at_the_vertex = 0, overshoots = 0;
+  int checked = 0, at_the_vertex = 0, overshoots = 0, overshoots_first_400 = 0;
   Scene s;
   s.probe_mesh = make_box_mesh({Vec3(0.02, 0.02, 0.02), 1, 1, 1});
   int top = -1;
@@ -178,7 +184,7 @@ TEST(PenetrationDepth, EnclosedPointUnderADentedVertexKeepsItsNearestPoint) {
     if ((s.block_x[static_cast<size_t>(i)] - Vec3(0, 0, 1)).norm() < 1e-12) top = i;
   }
   ASSERT_GE(top, 0);
-  for (int trial = 0; trial < 400; ++trial) {
+  for (int trial = 0; trial < 4000; ++trial) {
     s.block_x = s.block_mesh->rest_positions();
     const double delta = dent(rng);
     s.block_x[static_cast<size_t>(top)].z() -= delta;
@@ -191,6 +197,7 @@ TEST(PenetrationDepth, EnclosedPointUnderADentedVertexKeepsItsNearestPoint) {
     for (Vec3& x : s.probe_x) x += corner - top_corner;
     s.run();
     overshoots += s.solver.stats().enclosed_ray_overshoots;
+    if (trial < 400) overshoots_first_400 += s.solver.stats().enclosed_ray_overshoots;
     ASSERT_EQ(s.contacts.size(), static_cast<size_t>(s.probe_mesh->vertex_count())) << "trial " << trial;
     for (const auto& c : s.contacts) {
       ASSERT_EQ(c.depth_source, DepthSource::enclosed_fallback);
@@ -202,10 +209,12 @@ TEST(PenetrationDepth, EnclosedPointUnderADentedVertexKeepsItsNearestPoint) {
       if ((c.contact_point - s.block_x[static_cast<size_t>(top)]).norm() < 1e-12) ++at_the_vertex;
     }
   }
-  EXPECT_EQ(checked, 400 * 8);
-  EXPECT_GT(overshoots, 0);  // some rays did slip past their point: the case this test is about
-  EXPECT_GT(at_the_vertex, 300);  // the top corners' nearest point is the dent vertex
+  EXPECT_EQ(checked, 4000 * 8);
+  EXPECT_EQ(overshoots_first_400, 0);  // the walk's tie rule (one slip there without it)
+  EXPECT_GT(overshoots, 0);  // grazing rays did pass their point: the check this test is about
+  EXPECT_GT(at_the_vertex, 3000);  // the top corners' nearest point is the dent vertex
   RecordProperty("contacts_at_the_dent_vertex", std::to_string(at_the_vertex));
+  RecordProperty("enclosed_ray_overshoots", std::to_string(overshoots));
 }
 
 // Largest change of depth vectors between consecutive poses of a sweep of the probe by `step`.
