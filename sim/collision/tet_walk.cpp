@@ -92,9 +92,9 @@ TetWalkResult walk(const TetMesh& mesh, std::span<const Vec3> x, int start, cons
     // Session 20: where the line leaves through a surface vertex or edge, an interior face and a
     // surface face tie, and rounding can pick the interior one and send the walk on through the
     // body, out of its far side (PenetrationDepth.EnclosedPointUnderADentedVertexKeepsItsNearestPoint:
-    // one such ray in its first 3,200). A surface face
-    // within a rounding margin of the best exit is taken instead; the exit's hit is then
-    // Moller-Trumbore's around that triangle, or the walk fails and the BVH answers.
+    // one such ray in its first 3,200). A surface face within a rounding margin of the best exit is
+    // taken instead; the exit's hit is then Moller-Trumbore's around that triangle, or the walk
+    // fails and the BVH answers.
     if (best_surface >= 0 && best_surface != best_face) {
       const Vec3& xi = x[static_cast<size_t>(v[static_cast<size_t>(TetMesh::kTetFaceCorners[best_face][0])])];
       const double margin = 1e-9 * (std::abs(best_s) + (a - xi).norm() / d.norm());
