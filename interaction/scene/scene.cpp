@@ -151,7 +151,8 @@ BodyDef read_body(const JsonReader& j, const std::string& base_dir, size_t index
 ContactSettings read_contact(const JsonReader& j) {
   j.expect_keys({"method", "binary_search_iterations", "finishing_projection", "penalty_stiffness",
                  "penalty_damping", "friction", "held_force_fraction", "implicit_correction",
-                 "linearised_search", "limit_friction_move", "deformable_pair_held_force_fraction"});
+                 "linearised_search", "limit_friction_move", "deformable_pair_held_force_fraction",
+                 "held_linearised_final_strain"});
   ContactSettings c;
   if (auto m = j.find("method")) c.method = contact_method_from_string(m->choice({"surface", "penalty", "none"}));
   if (auto it = j.find("binary_search_iterations")) {
@@ -165,6 +166,8 @@ ContactSettings read_contact(const JsonReader& j) {
   c.penalty_damping = j.non_negative_number_or("penalty_damping", c.penalty_damping);
   c.friction = j.boolean_or("friction", c.friction);
   c.linearised_search = j.boolean_or("linearised_search", c.linearised_search);
+  // Session 21, opt-in: the final evaluation linearised under held forces within this strain gate.
+  c.held_linearised_final_strain = j.non_negative_number_or("held_linearised_final_strain", c.held_linearised_final_strain);
   if (auto it = j.find("limit_friction_move")) {
     // false (the default: no limit) | true (session 10's limit: returns excused) | "charge_returns"
     // (session 15: charged everywhere) | "charge_deformable_returns" (session 16: charged unless every

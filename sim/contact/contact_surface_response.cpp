@@ -646,10 +646,12 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // gates (ContactSettings::linearised_final_evaluation; false: exact, bit for bit). With held
   // forces they cap the next step's external force and stay exact: linearised there, the 1 mg
   // sliver case gained 4.85x the work put in (docs/contact-surface.md "Speed (session 7)").
-  const bool linear_final =
-      linearised && settings.linearised_final_evaluation && !(settings.held_force_fraction > 0.0);
+  // Session 21: with held forces only under the tighter opt-in gate (held_linearised_final_strain).
+  const bool held = settings.held_force_fraction > 0.0;
+  const double final_strain = held ? settings.held_linearised_final_strain : settings.linearised_search_strain;
+  const bool linear_final = linearised && settings.linearised_final_evaluation && (!held || final_strain > 0.0);
   evaluate_pressures(bodies, region_, false, 0, 0.0, linear_final ? Linearisation::final : Linearisation::none,
-                     settings.linearised_search_strain);
+                     final_strain);
   double imbalance_sum = 0.0;
   int imbalance_count = 0;
   for (const auto& v : vertices) {

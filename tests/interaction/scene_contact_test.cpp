@@ -1,7 +1,7 @@
 // The scene's "contact" object reads held_force_fraction (docs/scene-format.md): a value in [0, 1]
 // reaches the World's ContactSettings; outside, or of the wrong type, the error names its path.
-// Likewise deformable_pair_held_force_fraction (session 9; session 10: or "derived"), and the boolean
-// limit_friction_move.
+// Likewise deformable_pair_held_force_fraction (session 9; session 10: or "derived"), the boolean
+// limit_friction_move, and held_linearised_final_strain (session 21).
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -99,6 +99,33 @@ TEST(SceneFormat, MembraneStackShipsTheLimitChargingReturnsAndTheProbeDoesNot) {
   const Scene probe = load_scene(std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/probe.json");
   EXPECT_FALSE(probe.world.contact.limit_friction_move);
   EXPECT_FALSE(probe.world.contact.limit_friction_move_charges_returns);
+}
+
+// contact.held_linearised_final_strain (session 21, docs/contact-surface.md "Response time, session
+// 21"): 0 by default (the final evaluation exact under held forces); a non-negative number reaches the
+// World; a negative one or a string names its path. Three cubes ships 3e-3 (the gate tested in
+// Stability.SurfaceMilligramBodyWithASliverUnderTheHeldFinalGate); the other shipped scenes keep 0.
+TEST(SceneFormat, ContactHeldLinearisedFinalStrainReachesTheWorld) {
+  nlohmann::json j = probe_coarse_json();
+  EXPECT_EQ(parse_scene(j, "probe_coarse.json", ".").world.contact.held_linearised_final_strain, 0.0);
+  j["contact"]["held_linearised_final_strain"] = 2e-3;
+  const Scene scene = parse_scene(j, "probe_coarse.json", ".");
+  EXPECT_EQ(scene.world.contact.held_linearised_final_strain, 2e-3);
+  EXPECT_EQ(instantiate_scene(scene).world->settings().contact.held_linearised_final_strain, 2e-3);
+  for (const nlohmann::json& bad : {nlohmann::json(-1e-3), nlohmann::json("3e-3")}) {
+    j["contact"]["held_linearised_final_strain"] = bad;
+    try {
+      parse_scene(j, "probe_coarse.json", ".");
+      ADD_FAILURE() << "no error for " << bad.dump();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("/contact/held_linearised_final_strain"), std::string::npos) << e.what();
+    }
+  }
+  const std::string paper = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/";
+  EXPECT_EQ(load_scene(paper + "three_cubes.json").world.contact.held_linearised_final_strain, 3e-3);
+  for (const char* name : {"sphere_squeeze.json", "membrane_stack.json", "fruit_dish.json"}) {
+    EXPECT_EQ(load_scene(paper + name).world.contact.held_linearised_final_strain, 0.0) << name;
+  }
 }
 
 // contact.deformable_pair_held_force_fraction (docs/contact-surface.md "Resting churn, session 9"):

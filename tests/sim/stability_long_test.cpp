@@ -119,6 +119,24 @@ std::vector<Case> full_matrix() {
       };
     }
   }
+  // Opt-in (session 21): PLIANT_STABILITY_HELD_FINAL_STRAIN=g runs the contact-surface cases with
+  // ContactSettings::held_linearised_final_strain = g (the final evaluation linearised under held
+  // forces where the moves pass g; docs/contact-surface.md "Response time, session 21").
+  if (const char* env = std::getenv("PLIANT_STABILITY_HELD_FINAL_STRAIN"); env != nullptr) {
+    char* end = nullptr;
+    const double strain = std::strtod(env, &end);
+    if (end == env || *end != '\0' || !(strain >= 0.0)) {
+      std::fprintf(stderr, "PLIANT_STABILITY_HELD_FINAL_STRAIN: '%s' is not a strain >= 0\n", env);
+      std::exit(2);
+    }
+    for (Case& c : cases) {
+      if (c.method != ContactMethod::contact_surface) continue;
+      c.contact_tweak = [tweak = c.contact_tweak, strain](ContactSettings& s) {
+        if (tweak) tweak(s);
+        s.held_linearised_final_strain = strain;
+      };
+    }
+  }
   // Opt-in settings for measuring them on the whole matrix (session 9, docs/stability.md M7, M10):
   // PLIANT_STABILITY_OPT_IN, a comma-separated list of anchored (ContactSettings::
   // anchored_friction_compliance), limit (limit_friction_move), charge_returns (the limit charging
