@@ -143,6 +143,9 @@ int main(int argc, char** argv) {
   tradeoff_cmd->add_option("--resolution", tradeoff.resolution_factors,
                            "Cell-count factors for generated box/membrane meshes (1 alone: no resolution sweep)")
       ->check(CLI::Range(0.05, 8.0));
+  tradeoff_cmd->add_option("--held-final-strain", tradeoff.held_final_strains,
+                           "contact.held_linearised_final_strain values to try (default: the scene's)")
+      ->check(CLI::NonNegativeNumber);
   tradeoff_cmd->add_flag("--quiet", tradeoff.quiet, "Print nothing on success");
   tradeoff_cmd->callback([&] { exit_code = pliant::run_tradeoff(tradeoff, std::cout); });
 

@@ -42,6 +42,7 @@ struct Setting {
   int solver_iterations = 20;
   double dt_factor = 1.0;
   double resolution_factor = 1.0;  ///< cell counts of generated box/membrane meshes x this
+  double held_final_strain = 0.0;  ///< contact.held_linearised_final_strain
 };
 
 /// Everything a run records for the comparison.
@@ -73,6 +74,7 @@ double median(std::vector<double> v) {
 Scene configured(const Scene& base, const Setting& s) {
   Scene scene = base;
   scene.world.contact.binary_search_iterations = s.binary_search_iterations;
+  scene.world.contact.held_linearised_final_strain = s.held_final_strain;
   for (BodyDef& b : scene.bodies) b.model_settings.accuracy.max_solver_iterations = s.solver_iterations;
   scene.time_step = base.time_step * s.dt_factor;
   scene.output.frames = false;
@@ -293,19 +295,27 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
   std::filesystem::create_directories(out, ec);
   if (ec) throw InputError(InputErrorKind::io, out.string(), "cannot create output folder: " + ec.message());
 
+  const double scene_gate = base.world.contact.held_linearised_final_strain;
+  const std::vector<double> gates =
+      options.held_final_strains.empty() ? std::vector<double>{scene_gate} : options.held_final_strains;
+  for (double g : gates) {
+    if (!(g >= 0.0)) throw InputError(InputErrorKind::bad_value, "--held-final-strain", "expected numbers >= 0");
+  }
   const Setting reference{*std::max_element(options.binary_search_iterations.begin(), options.binary_search_iterations.end()),
                           *std::max_element(options.solver_iterations.begin(), options.solver_iterations.end()),
-                          *std::min_element(options.dt_factors.begin(), options.dt_factors.end())};
+                          *std::min_element(options.dt_factors.begin(), options.dt_factors.end()), 1.0,
+                          *std::min_element(gates.begin(), gates.end())};
   int default_solver = 20;
   for (const BodyDef& b : base.bodies) {
     if (b.motion == BodyMotion::deformable) default_solver = b.model_settings.accuracy.max_solver_iterations;
   }
-  const Setting scene_default{base.world.contact.binary_search_iterations, default_solver, 1.0};
+  const Setting scene_default{base.world.contact.binary_search_iterations, default_solver, 1.0, 1.0, scene_gate};
 
   if (!options.quiet) {
     log << "tradeoff: " << base.name << ", " << options.steps << " steps of " << base.time_step * 1e3
         << " ms; reference: " << reference.binary_search_iterations << " binary-search iterations, "
-        << reference.solver_iterations << " CG iterations, dt x" << reference.dt_factor << "\n";
+        << reference.solver_iterations << " CG iterations, dt x" << reference.dt_factor << ", held final gate "
+        << reference.held_final_strain << "\n";
   }
   const RunRecord ref = run_setting(base, reference, end_time);
   if (ref.failed) {
@@ -319,7 +329,9 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
   std::vector<Setting> settings;
   for (double dt : options.dt_factors) {
     for (int cg : options.solver_iterations) {
-      for (int bs : options.binary_search_iterations) settings.push_back(Setting{bs, cg, dt});
+      for (int bs : options.binary_search_iterations) {
+        for (double g : gates) settings.push_back(Setting{bs, cg, dt, 1.0, g});
+      }
     }
   }
   std::vector<RunRecord> runs;
@@ -333,8 +345,9 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
     force_err.push_back(r.failed ? std::numeric_limits<double>::infinity() : force_rms(r, ref));
     valid.push_back(r.failed ? 0 : 1);
     if (!options.quiet) {
-      log << "  bs " << s.binary_search_iterations << " cg " << s.solver_iterations << " dt x" << s.dt_factor << ": "
-          << (r.failed ? "FAILED " + r.fault : "") << std::setprecision(3) << " surface " << pos_err.back() * 1e3
+      log << "  bs " << s.binary_search_iterations << " cg " << s.solver_iterations << " dt x" << s.dt_factor;
+      if (gates.size() > 1) log << " gate " << s.held_final_strain;
+      log << ": " << (r.failed ? "FAILED " + r.fault : "") << std::setprecision(3) << " surface " << pos_err.back() * 1e3
           << " mm, force " << force_err.back() << " N, " << cost.back() << " ms/scene step\n";
     }
     runs.push_back(std::move(r));
@@ -412,14 +425,15 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
          "max_residual_overlap_mm,mean_residual_overlap_mm,surface_rms_error_mm,force_rms_error_N,"
          "force_rms_reference_N,energy_drift_J,energy_drift_error_J,median_ms_per_step,median_stage_ms_per_step,"
          "ms_per_scene_step,pareto_surface,pareto_force,is_default,is_reference,resolution_factor,deformable_vertices,"
-         "compared_with\n";
+         "compared_with,held_final_strain\n";
   for (size_t i = 0; i < settings.size(); ++i) {
     const Setting& s = settings[i];
     const RunRecord& r = runs[i];
     const bool by_resolution = std::string(compared_with[i]) == "resolution";
     auto same = [&](const Setting& o) {
       return o.binary_search_iterations == s.binary_search_iterations && o.solver_iterations == s.solver_iterations &&
-             o.dt_factor == s.dt_factor && o.resolution_factor == s.resolution_factor;
+             o.dt_factor == s.dt_factor && o.resolution_factor == s.resolution_factor &&
+             o.held_final_strain == s.held_final_strain;
     };
     const double row_ref_force = by_resolution ? resolution_reference_force : ref_force;
     const double row_ref_energy = by_resolution ? resolution_reference_energy : ref.energy_drift;
@@ -430,7 +444,8 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
         << r.energy_drift << ',' << std::abs(r.energy_drift - row_ref_energy) << ',' << r.median_tick_s * 1e3
         << ',' << r.median_stage_s * 1e3 << ',' << cost[i] << ',' << int(front_pos[i]) << ',' << int(front_force[i])
         << ',' << (!by_resolution && same(scene_default) ? 1 : 0) << ',' << (row_is_reference ? 1 : 0) << ','
-        << s.resolution_factor << ',' << deformable_vertices[i] << ',' << compared_with[i] << '\n';
+        << s.resolution_factor << ',' << deformable_vertices[i] << ',' << compared_with[i] << ','
+        << s.held_final_strain << '\n';
   }
   const std::filesystem::path csv_path = out / "tradeoff.csv";
   write_file_atomically(csv_path.string(), csv.str());

@@ -1,5 +1,6 @@
 // `pliant tradeoff SCENE --out DIR [--steps N]`: the speed-accuracy trade (issue 8, item 4). Sweeps
-// binary-search iterations, solver (CG) iterations, dt and mesh resolution, measures each setting against a
+// binary-search iterations, solver (CG) iterations, dt, mesh resolution and (session 21, on request)
+// the held final evaluation's strain gate, measures each setting against a
 // reference run at the highest settings, and writes DIR/tradeoff.csv and DIR/tradeoff.png
 // (Pareto plot via scripts/plot_tradeoff.sh). Metrics and choices: docs/tradeoff.md.
 #pragma once
@@ -20,6 +21,10 @@ struct TradeoffOptions {
   /// Cell-count factors for the scene's generated box and membrane meshes (1 = as in the scene);
   /// run at the scene's default settings against a reference at the largest factor.
   std::vector<double> resolution_factors{0.5, 1.0, 2.0};
+  /// contact.held_linearised_final_strain values to try (session 21; docs/contact-surface.md
+  /// "Response time, session 21"); empty: the scene's own value only. The reference takes the
+  /// smallest (0: the exact final evaluation).
+  std::vector<double> held_final_strains;
   bool plot = true;   ///< run scripts/plot_tradeoff.sh when gnuplot is available
   bool quiet = false;
 };

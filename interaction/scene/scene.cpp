@@ -167,7 +167,8 @@ ContactSettings read_contact(const JsonReader& j) {
   c.friction = j.boolean_or("friction", c.friction);
   c.linearised_search = j.boolean_or("linearised_search", c.linearised_search);
   // Session 21, opt-in: the final evaluation linearised under held forces within this strain gate.
-  c.held_linearised_final_strain = j.non_negative_number_or("held_linearised_final_strain", c.held_linearised_final_strain);
+  c.held_linearised_final_strain =
+      j.non_negative_number_or("held_linearised_final_strain", c.held_linearised_final_strain);
   if (auto it = j.find("limit_friction_move")) {
     // false (the default: no limit) | true (session 10's limit: returns excused) | "charge_returns"
     // (session 15: charged everywhere) | "charge_deformable_returns" (session 16: charged unless every

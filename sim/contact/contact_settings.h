@@ -74,7 +74,8 @@ struct ContactSettings {
   /// (held_force_fraction 0: the final evaluation's forces are only reported), the final
   /// evaluation at the contact surface takes f(x1) - K' (x - x1) too, for the bodies whose search
   /// was linearised and whose moves since x1 (all region vertices, the projection's included) pass
-  /// linearised_search_strain; elsewhere, and always with held forces, it stays the exact query.
+  /// linearised_search_strain; elsewhere, and with held forces (unless held_linearised_final_strain
+  /// > 0, below), it stays the exact query.
   /// The step's positions and velocities are unchanged; later steps differ only through the
   /// rotations the exact query would have remembered for search_rotation_tolerance's reuse.
   /// false: the final evaluation is always exact (bit for bit).

@@ -638,7 +638,7 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
     if (observer) observer(ContactStage::projection);
   }
 
-  // Forces at the final contact surface, always exact (session 4: the frozen query's error is
+  // Forces at the final contact surface, exact by default (session 4: the frozen query's error is
   // multiplied by a stiff body's pre-stress, and these forces leave the stage as the held-force cap
   // and the reported elastic forces): pressure imbalance, held-force cap, each side's elastic force.
   // Session 7: without held forces these forces are only reported (imbalance, elastic pair forces),
@@ -646,7 +646,8 @@ void ContactSurfaceResponse::respond(std::span<Body* const> bodies, std::span<co
   // gates (ContactSettings::linearised_final_evaluation; false: exact, bit for bit). With held
   // forces they cap the next step's external force and stay exact: linearised there, the 1 mg
   // sliver case gained 4.85x the work put in (docs/contact-surface.md "Speed (session 7)").
-  // Session 21: with held forces only under the tighter opt-in gate (held_linearised_final_strain).
+  // Session 21: with held forces, linearised only under the tighter opt-in gate
+  // (ContactSettings::held_linearised_final_strain; 0, the default: exact as before).
   const bool held = settings.held_force_fraction > 0.0;
   const double final_strain = held ? settings.held_linearised_final_strain : settings.linearised_search_strain;
   const bool linear_final = linearised && settings.linearised_final_evaluation && (!held || final_strain > 0.0);

@@ -1,0 +1,102 @@
+// `pliant tradeoff` end to end (issue 8, item 3; the command had no test before session 21): one CSV
+// row per setting, the reference compared with itself exactly zero (runs are deterministic), the
+// other settings non-zero, the scene's default row marked, and bad input -> exit code 2 with nothing
+// written. On the three cubes (the smallest scene where every contact searches), past their landing
+// (step ~56), with the held final evaluation's gate (session 21) as a sweep dimension: its
+// reference is the exact final evaluation (the smallest gate), and the scene ships 3e-3.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "support/run_cli.h"
+
+namespace pliant {
+namespace {
+
+namespace fs = std::filesystem;
+
+using testing::CliResult;
+using testing::pliant_binary;
+using testing::run_cli;
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("pliant_tradeoff_test_" + std::to_string(::getpid())) / name;
+  fs::remove_all(dir);
+  return dir;
+}
+
+/// The CSV's rows as column name -> text.
+std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    std::map<std::string, std::string> row;
+    for (size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+TEST(TradeoffCommand, ReferenceIsExactlyItselfAndTheHeldFinalGateIsASweepDimension) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("cubes");
+  const std::string scene = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/three_cubes.json";
+  const CliResult r = run_cli("tradeoff " + scene + " --out " + out.string() +
+                              " --steps 120 --binary-search 2 4 --solver 20 --dt 1 --resolution 1"
+                              " --held-final-strain 0 0.003 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto rows = read_csv(out / "tradeoff.csv");
+  ASSERT_EQ(rows.size(), 4u);  // 2 search iterations x 2 gates
+  int references = 0, defaults = 0;
+  for (const auto& row : rows) {
+    const int bs = std::stoi(row.at("binary_search_iterations"));
+    const double gate = std::stod(row.at("held_final_strain"));
+    const double surface = std::stod(row.at("surface_rms_error_mm"));
+    EXPECT_EQ(row.at("failed"), "0");
+    EXPECT_EQ(row.at("steps"), "120");
+    const bool is_reference = bs == 4 && gate == 0.0;  // most iterations, smallest gate
+    EXPECT_EQ(row.at("is_reference"), is_reference ? "1" : "0") << bs << " " << gate;
+    EXPECT_EQ(row.at("is_default"), bs == 4 && gate == 0.003 ? "1" : "0") << bs << " " << gate;
+    references += is_reference;
+    defaults += row.at("is_default") == "1";
+    if (is_reference) {
+      EXPECT_EQ(surface, 0.0);  // deterministic: the reference setting reproduces the reference run
+    } else {
+      EXPECT_GT(surface, 0.0) << bs << " " << gate;  // the setting changed the run
+      EXPECT_LT(surface, 1.0) << bs << " " << gate;  // mm: a contact setting, not a different scene
+    }
+  }
+  EXPECT_EQ(references, 1);
+  EXPECT_EQ(defaults, 1);
+}
+
+TEST(TradeoffCommand, BadInputExitsWith2AndWritesNothing) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const fs::path out = scratch("bad");
+  const std::string scene = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/three_cubes.json";
+  for (const auto& [args, message] :
+       {std::pair<std::string, std::string>{"tradeoff no_such_scene.json --out " + out.string(), "no_such_scene"},
+        {"tradeoff " + scene + " --out " + out.string() + " --held-final-strain -0.001", "--held-final-strain"},
+        {"tradeoff " + scene + " --out " + out.string() + " --steps 0", "--steps"}}) {
+    const CliResult r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(out / "tradeoff.csv"));
+}
+
+}  // namespace
+}  // namespace pliant
