@@ -261,6 +261,9 @@ TEST(BadInput, CommandLineRejectsBadInputWithExitCode2AndNoOutput) {
       {"mesh info missing", "mesh info {dir}/none.msh", "none.msh"},
       {"mesh info broken", "mesh info {dir}/bad.vtk", "bad.vtk:"},
       {"mesh convert bad output", "mesh convert " + std::string(PLIANT_SOURCE_DIR) + "/assets/meshes/gmsh_cube_v22.msh {out}/x.stl", "x.stl"},
+      {"tradeoff missing scene", "tradeoff {dir}/none.json --out {out}", "none.json"},
+      {"tradeoff steps 0", "tradeoff " + scene + " --out {out} --steps 0", "--steps"},
+      {"tradeoff negative gate", "tradeoff " + scene + " --out {out} --held-final-strain 0 -0.001", "--held-final-strain"},
   };
   for (size_t i = 0; i < commands.size(); ++i) {
     const BadCommand& c = commands[i];
