@@ -33,12 +33,7 @@ nlohmann::json read_json(const fs::path& file) {
   return nlohmann::json::parse(in);
 }
 
-fs::path scratch(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("pliant_experiment_test_" + std::to_string(::getpid())) / name;
-  fs::remove_all(dir);
-  return dir;
-}
+fs::path scratch(const std::string& name) { return testing::scratch_dir("experiment_test", name); }
 
 TEST(ExperimentCommand, SphereSqueezeWritesBothMethodsAndTheSummary) {
   if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();

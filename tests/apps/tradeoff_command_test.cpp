@@ -21,16 +21,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-using testing::CliResult;
-using testing::pliant_binary;
-using testing::run_cli;
-
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("pliant_tradeoff_test_" + std::to_string(::getpid())) / name;
-  fs::remove_all(dir);
-  return dir;
-}
-
 /// The CSV's rows as column name -> text.
 std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
   std::ifstream in(file);
@@ -52,10 +42,10 @@ std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
 }
 
 TEST(TradeoffCommand, ReferenceIsExactlyItselfAndTheHeldFinalGateIsASweepDimension) {
-  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
-  const fs::path out = scratch("cubes");
+  if (!fs::exists(testing::pliant_binary())) GTEST_SKIP() << "pliant binary not built";
+  const fs::path out = testing::scratch_dir("tradeoff_test", "cubes");
   const std::string scene = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/three_cubes.json";
-  const CliResult r = run_cli("tradeoff " + scene + " --out " + out.string() +
+  const testing::CliResult r = testing::run_cli("tradeoff " + scene + " --out " + out.string() +
                               " --steps 120 --binary-search 2 4 --solver 20 --dt 1 --resolution 1"
                               " --held-final-strain 0 0.003 --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -18,6 +18,16 @@ nlohmann::json probe_coarse_json() {
   return nlohmann::json::parse(in);
 }
 
+// Parsing `j` fails with an InputError naming `path` (`what`: the bad value, for the message).
+void expect_rejected(const nlohmann::json& j, const std::string& path, const std::string& what) {
+  try {
+    parse_scene(j, "probe_coarse.json", ".");
+    ADD_FAILURE() << "no error for " << what;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
 // A held-force fraction key: `value` (not the default) reaches the scene and the World; 1.5, -0.1
 // and a string are errors naming /contact/<key>.
 void expect_fraction_key(const char* key, double value, double ContactSettings::*member) {
@@ -28,12 +38,7 @@ void expect_fraction_key(const char* key, double value, double ContactSettings::
   EXPECT_EQ(instantiate_scene(scene).world->settings().contact.*member, value) << key;
   for (const nlohmann::json& bad : {nlohmann::json(1.5), nlohmann::json(-0.1), nlohmann::json("all")}) {
     j["contact"][key] = bad;
-    try {
-      parse_scene(j, "probe_coarse.json", ".");
-      ADD_FAILURE() << "no error for " << bad;
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find(std::string("/contact/") + key), std::string::npos) << e.what();
-    }
+    expect_rejected(j, std::string("/contact/") + key, bad.dump());
   }
 }
 
@@ -78,12 +83,7 @@ TEST(SceneFormat, ContactLimitFrictionMoveReachesTheWorld) {
   EXPECT_TRUE(instantiate_scene(flowing).world->settings().contact.limit_friction_move_energy_flow);
   for (const nlohmann::json& bad : {nlohmann::json(0.5), nlohmann::json("charge")}) {
     j["contact"]["limit_friction_move"] = bad;
-    try {
-      parse_scene(j, "probe_coarse.json", ".");
-      ADD_FAILURE() << "no error for " << bad.dump();
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("/contact/limit_friction_move"), std::string::npos) << e.what();
-    }
+    expect_rejected(j, "/contact/limit_friction_move", bad.dump());
   }
 }
 
@@ -114,12 +114,7 @@ TEST(SceneFormat, ContactHeldLinearisedFinalStrainReachesTheWorld) {
   EXPECT_EQ(instantiate_scene(scene).world->settings().contact.held_linearised_final_strain, 2e-3);
   for (const nlohmann::json& bad : {nlohmann::json(-1e-3), nlohmann::json("3e-3")}) {
     j["contact"]["held_linearised_final_strain"] = bad;
-    try {
-      parse_scene(j, "probe_coarse.json", ".");
-      ADD_FAILURE() << "no error for " << bad.dump();
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("/contact/held_linearised_final_strain"), std::string::npos) << e.what();
-    }
+    expect_rejected(j, "/contact/held_linearised_final_strain", bad.dump());
   }
   const std::string paper = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/";
   EXPECT_EQ(load_scene(paper + "three_cubes.json").world.contact.held_linearised_final_strain, 3e-3);
@@ -149,12 +144,7 @@ TEST(SceneFormat, ContactDeformablePairHeldForceDerivedReachesTheWorld) {
   EXPECT_EQ(scene.world.contact.deformable_pair_held_force_fraction, 1.0);
   EXPECT_TRUE(instantiate_scene(scene).world->settings().contact.deformable_pair_held_force_derived);
   j["contact"]["deformable_pair_held_force_fraction"] = "derive";
-  try {
-    parse_scene(j, "probe_coarse.json", ".");
-    ADD_FAILURE() << "no error for \"derive\"";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("/contact/deformable_pair_held_force_fraction"), std::string::npos) << e.what();
-  }
+  expect_rejected(j, "/contact/deformable_pair_held_force_fraction", "\"derive\"");
 }
 
 }  // namespace

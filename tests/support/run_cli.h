@@ -2,6 +2,7 @@
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -29,6 +30,14 @@ inline CliResult run_cli(const std::string& args) {
   const int status = ::pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+/// A fresh, empty folder for a test's outputs: TMP/pliant_<prefix>_<pid>/<name> (removed if there).
+inline std::filesystem::path scratch_dir(const std::string& prefix, const std::string& name) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("pliant_" + prefix + "_" + std::to_string(::getpid())) / name;
+  std::filesystem::remove_all(dir);
+  return dir;
 }
 
 }  // namespace pliant::testing
