@@ -47,7 +47,7 @@ panel() {  # column, ylabel, title, all, front
   echo "set terminal pngcairo size 1200,520 font \",10\" noenhanced"
   echo "set output \"$png\""
   echo "set datafile separator \",\""
-  echo "set multiplot layout 1,2 title \"Speed-accuracy trade: $title (reference: most iterations, smallest dt)\""
+  echo "set multiplot layout 1,2 title \"Speed-accuracy trade: $title (reference: most iterations, smallest dt and held final gate)\""
   echo "set grid"
   echo "set key top right"
   echo "set xlabel \"wall time per scene step (ms, median)\""
