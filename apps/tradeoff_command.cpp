@@ -290,17 +290,17 @@ int run_tradeoff(const TradeoffOptions& options, std::ostream& log) {
   }
   const Scene base = load_scene(options.scene);
   const double end_time = static_cast<double>(options.steps) * base.time_step;
-  const std::filesystem::path out = options.out;
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec) throw InputError(InputErrorKind::io, out.string(), "cannot create output folder: " + ec.message());
-
   const double scene_gate = base.world.contact.held_linearised_final_strain;
   const std::vector<double> gates =
       options.held_final_strains.empty() ? std::vector<double>{scene_gate} : options.held_final_strains;
   for (double g : gates) {
     if (!(g >= 0.0)) throw InputError(InputErrorKind::bad_value, "--held-final-strain", "expected numbers >= 0");
   }
+  const std::filesystem::path out = options.out;
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) throw InputError(InputErrorKind::io, out.string(), "cannot create output folder: " + ec.message());
+
   const Setting reference{*std::max_element(options.binary_search_iterations.begin(), options.binary_search_iterations.end()),
                           *std::max_element(options.solver_iterations.begin(), options.solver_iterations.end()),
                           *std::min_element(options.dt_factors.begin(), options.dt_factors.end()), 1.0,
