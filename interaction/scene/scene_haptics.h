@@ -60,8 +60,9 @@ class DeviceTrack {
 class SceneHaptics {
  public:
   /// One channel per instrument of `runner` (its positions at construction seed the tracks), at
-  /// `settings`' limits and wait. `expected_seconds` preallocates records and timing samples.
-  /// `realtime_priority`: ask for SCHED_FIFO on the haptic thread (reported in timing()).
+  /// `settings`' limits, ticked by `settings.threads` threads. `expected_seconds` preallocates
+  /// records and timing samples. `realtime_priority`: ask for SCHED_FIFO on the haptic threads
+  /// (reported in timing()).
   SceneHaptics(Clock& clock, const SceneRunner& runner, const HapticSettings& settings, double expected_seconds,
                bool realtime_priority);
   ~SceneHaptics();
