@@ -383,7 +383,7 @@ void World::detect() {
   // O(bodies^2) passes over the filter (0.1-0.16 ms a step for the resting fruit dish).
   if (!settings_.sleep.enabled || !nothing_moves(body_view_)) {
     build_collision_filter();
-    spatial_hash_.detect(collision_bodies_, filter_, colliding_);
+    spatial_hash_.detect(collision_bodies_, filter_, colliding_, executor_);
   }
   // A moving body touched a sleeping one: wake it and detect again with its pairs back in.
   if (settings_.sleep.enabled) {
@@ -392,7 +392,7 @@ void World::detect() {
     if (report_.bodies_woken > 0) {
       build_collision_filter();
       colliding_.clear();
-      spatial_hash_.detect(collision_bodies_, filter_, colliding_);
+      spatial_hash_.detect(collision_bodies_, filter_, colliding_, executor_);
     }
     if (settings_.sleep.rest_by_centre_when_supported) {
       note_supported_bodies(body_view_, colliding_, contact_surface_->held_contacts());

@@ -13,6 +13,10 @@ namespace {
 
 double min_coefficient(const Vec4& b) { return b.minCoeff(); }
 
+/// Pass 2's chunk with threads: a fixed count (never from the thread count), small enough that the
+/// fruit dish's 143 bodies balance over two threads (a box's rigid pass is worth a few fruits).
+constexpr size_t kPenetratedBodiesPerChunk = 2;
+
 /// One tet of body b under test: its corners, bounds and (built on first need) barycentric frame.
 /// The cell walk and the rigid pass test candidates through it, so both find the same bits.
 struct TetUnderTest {
@@ -51,14 +55,13 @@ struct TetUnderTest {
 
 }  // namespace
 
-bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
+bool SpatialHash::rigid_pass(int b, const CollisionBody& cb, PenetratedBodyScratch& s) const {
   const TetMesh& mesh = *cb.mesh;
   const Pose& pose = *cb.rigid_pose;
   if (!(std::abs(pose.rotation.squaredNorm() - 1.0) <= 1e-12)) return false;  // the inverse below needs a unit q
   const auto i = static_cast<size_t>(b);
-  if (rigid_grids_.size() <= i) rigid_grids_.resize(i + 1);
-  RigidTetGrid& grid = rigid_grids_[i];
-  if (!grid.built_for(mesh)) grid.build(mesh);
+  const RigidTetGrid& grid = rigid_grids_[i];  // built before pass 2 (detect)
+  assert(grid.built_for(mesh));
   // A point the inside test accepts lies within 1e-12 x (largest |coordinate|, longest edge) of the
   // tet (TetBarycentricFrame); in the rest frame add how far the positions are from pose(rest) and
   // the frame change's rounding. 1e-9 x the largest coordinate covers the tolerance and the rounding.
@@ -79,32 +82,32 @@ bool SpatialHash::rigid_pass(int b, const CollisionBody& cb) {
   // it), and a partner none of whose inserted vertices can be inside b's bounds is skipped whole:
   // in the piled dish each box used to read every inserted fruit vertex (session 15).
   const Aabb& own = body_bounds_[i];
-  for (int a : partners_) {
+  for (int a : s.partners) {
     const auto ai = static_cast<size_t>(a);
     if (!vertex_bounds_[ai].overlaps(own)) continue;
     for (int e = hashed_begin_[ai]; e < hashed_begin_[ai + 1]; ++e) {
       const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
       if ((hv.x.array() < own.min.array()).any() || (hv.x.array() > own.max.array()).any()) continue;
       for (int t : grid.tets_near(inverse * (hv.x - pose.translation))) {
-        ++stats_.tets_visited;
-        TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, stats_, candidates_);
+        ++s.stats.tets_visited;
+        TetUnderTest(cb, b, t).test(hv.x, hv.body, hv.vertex, s.stats, s.candidates);
       }
     }
   }
   return true;
 }
 
-long long SpatialHash::gather_partner_vertices(int b, double inv_l) {
+long long SpatialHash::gather_partner_vertices(int b, double inv_l, PenetratedBodyScratch& s) const {
   const Aabb& own = body_bounds_[static_cast<size_t>(b)];
-  partner_outcodes_.clear_boxes();
+  s.partner_outcodes.clear_boxes();
   int hi[3];
   double cells = 1.0;
   for (int k = 0; k < 3; ++k) {
-    occupied_origin_[k] = cell_coordinate(own.min[k], inv_l);
+    s.occupied_origin[k] = cell_coordinate(own.min[k], inv_l);
     hi[k] = cell_coordinate(own.max[k], inv_l);
-    cells *= static_cast<double>(hi[k]) - occupied_origin_[k] + 1.0;
+    cells *= static_cast<double>(hi[k]) - s.occupied_origin[k] + 1.0;
   }
-  occupied_dims_[0] = occupied_dims_[1] = occupied_dims_[2] = 0;
+  s.occupied_dims[0] = s.occupied_dims[1] = s.occupied_dims[2] = 0;
   // No cell at all: b's bounds are empty (every vertex non-finite: Aabb::extend drops NaN), so no
   // partner vertex can lie in one of its tets. (A negative count cast to size_t was std::bad_alloc.)
   if (!(cells >= 1.0)) return 0;
@@ -112,11 +115,11 @@ long long SpatialHash::gather_partner_vertices(int b, double inv_l) {
   // none then (a body much larger than its share of the vertices), and no tet is skipped by cells.
   const bool bitmap = cells <= std::max(4096.0, 8.0 * static_cast<double>(hashed_.size()));
   if (bitmap) {
-    for (int k = 0; k < 3; ++k) occupied_dims_[k] = hi[k] - occupied_origin_[k] + 1;
-    occupied_.assign((static_cast<size_t>(cells) + 63) / 64, 0);
+    for (int k = 0; k < 3; ++k) s.occupied_dims[k] = hi[k] - s.occupied_origin[k] + 1;
+    s.occupied.assign((static_cast<size_t>(cells) + 63) / 64, 0);
   }
   long long inside = 0;
-  for (int a : partners_) {
+  for (int a : s.partners) {
     // A partner vertex inside a tet of b lies in b's bounds, hence in both boxes.
     if (!vertex_bounds_[static_cast<size_t>(a)].overlaps(own)) continue;
     Aabb inside_b;  // a's inserted vertices inside b's bounds: for two touching fruits, their lens
@@ -129,31 +132,31 @@ long long SpatialHash::gather_partner_vertices(int b, double inv_l) {
       if (!bitmap) continue;
       // Inside b's bounds, so inside its cells (the cell coordinate is monotone in x).
       const int* c = hv.cell;
-      assert(c[0] >= occupied_origin_[0] && c[0] <= hi[0] && c[1] >= occupied_origin_[1] && c[1] <= hi[1] &&
-             c[2] >= occupied_origin_[2] && c[2] <= hi[2]);
-      const auto bit = (static_cast<size_t>(c[0] - occupied_origin_[0]) * static_cast<size_t>(occupied_dims_[1]) +
-                        static_cast<size_t>(c[1] - occupied_origin_[1])) *
-                           static_cast<size_t>(occupied_dims_[2]) +
-                       static_cast<size_t>(c[2] - occupied_origin_[2]);
-      occupied_[bit / 64] |= std::uint64_t{1} << (bit % 64);
+      assert(c[0] >= s.occupied_origin[0] && c[0] <= hi[0] && c[1] >= s.occupied_origin[1] && c[1] <= hi[1] &&
+             c[2] >= s.occupied_origin[2] && c[2] <= hi[2]);
+      const auto bit = (static_cast<size_t>(c[0] - s.occupied_origin[0]) * static_cast<size_t>(s.occupied_dims[1]) +
+                        static_cast<size_t>(c[1] - s.occupied_origin[1])) *
+                           static_cast<size_t>(s.occupied_dims[2]) +
+                       static_cast<size_t>(c[2] - s.occupied_origin[2]);
+      s.occupied[bit / 64] |= std::uint64_t{1} << (bit % 64);
     }
-    if (!inside_b.empty()) partner_outcodes_.add_box(inside_b);
+    if (!inside_b.empty()) s.partner_outcodes.add_box(inside_b);
   }
   return inside;
 }
 
-bool SpatialHash::any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const {
-  if (occupied_dims_[0] == 0) return true;
-  assert(i0 >= occupied_origin_[0] && i1 < occupied_origin_[0] + occupied_dims_[0]);
-  assert(j0 >= occupied_origin_[1] && j1 < occupied_origin_[1] + occupied_dims_[1]);
-  assert(k0 >= occupied_origin_[2] && k1 < occupied_origin_[2] + occupied_dims_[2]);
-  const auto ny = static_cast<size_t>(occupied_dims_[1]), nz = static_cast<size_t>(occupied_dims_[2]);
+bool SpatialHash::any_cell_occupied(const PenetratedBodyScratch& s, int i0, int i1, int j0, int j1, int k0, int k1) {
+  if (s.occupied_dims[0] == 0) return true;
+  assert(i0 >= s.occupied_origin[0] && i1 < s.occupied_origin[0] + s.occupied_dims[0]);
+  assert(j0 >= s.occupied_origin[1] && j1 < s.occupied_origin[1] + s.occupied_dims[1]);
+  assert(k0 >= s.occupied_origin[2] && k1 < s.occupied_origin[2] + s.occupied_dims[2]);
+  const auto ny = static_cast<size_t>(s.occupied_dims[1]), nz = static_cast<size_t>(s.occupied_dims[2]);
   for (int i = i0; i <= i1; ++i) {
     for (int j = j0; j <= j1; ++j) {
-      const size_t row = (static_cast<size_t>(i - occupied_origin_[0]) * ny + static_cast<size_t>(j - occupied_origin_[1])) * nz;
+      const size_t row = (static_cast<size_t>(i - s.occupied_origin[0]) * ny + static_cast<size_t>(j - s.occupied_origin[1])) * nz;
       for (int k = k0; k <= k1; ++k) {
-        const size_t bit = row + static_cast<size_t>(k - occupied_origin_[2]);
-        if ((occupied_[bit / 64] >> (bit % 64)) & 1u) return true;
+        const size_t bit = row + static_cast<size_t>(k - s.occupied_origin[2]);
+        if ((s.occupied[bit / 64] >> (bit % 64)) & 1u) return true;
       }
     }
   }
@@ -183,8 +186,97 @@ std::uint64_t SpatialHash::next_prime(std::uint64_t n) {
   }
 }
 
+void SpatialHash::penetrate(int b, const CollisionBody& cb, const CollisionFilter& filter, double inv_l,
+                            PenetratedBodyScratch& s) const {
+  // The last body's partner marks go (each body marks only its own partners).
+  for (int a : s.partners) s.partner[static_cast<size_t>(a)] = 0;
+  s.partners.clear();
+  const std::uint64_t n = table_size_;
+  // The bodies whose vertices may enter this one, ascending: those it may touch whose bounds
+  // overlap its own (another body's vertex inside b's tet is in both bounds; a body whose bounds
+  // miss b's would be skipped by every tet's box test). None inserted a vertex: nothing to find.
+  bool partner_inserted = false;
+  auto mark = [&](int a) {
+    if (!hashes_vertices_[static_cast<size_t>(a)] || !filter.allowed(a, b)) return;
+    s.partner[static_cast<size_t>(a)] = 1;
+    s.partners.push_back(a);
+    partner_inserted = partner_inserted || !vertex_bounds_[static_cast<size_t>(a)].empty();
+  };
+  const auto others = bounds_overlap_.overlapping(b);
+  const auto after_b = std::upper_bound(others.begin(), others.end(), b);
+  for (auto it = others.begin(); it != after_b; ++it) mark(*it);
+  mark(b);  // self-collision
+  for (auto it = after_b; it != others.end(); ++it) mark(*it);
+  if (!partner_inserted) return;
+  if (cb.rigid_pose != nullptr && rigid_pass(b, cb, s)) return;
+  // The partners' inserted vertices inside b's bounds, boxed per partner and marked by cell; none:
+  // no tet of b can hold one.
+  if (gather_partner_vertices(b, inv_l, s) == 0) return;
+  // Out-codes against those boxes: a tet whose box meets none of them cannot hold a partner vertex
+  // (the tet's own box test would reject every one), so it is skipped before any look-up. In a pile
+  // this leaves the tets near a neighbour's lens; one box around all partners left every tet.
+  const int nv = cb.mesh->vertex_count();
+  s.partner_outcodes.assign_codes(cb.positions.first(static_cast<size_t>(nv)));
+  const auto& tets = cb.mesh->tets();
+  const size_t nt = tets.size();
+  for (size_t next = 0;; ++next) {
+    // The tets before the next one that meets a box are skipped (misses_every_box, in one loop).
+    const size_t meeting = s.partner_outcodes.first_tet_meeting_a_box(tets, next);
+    s.stats.tets_skipped_partner_boxes += static_cast<long long>(meeting - next);
+    if (meeting >= nt) break;
+    next = meeting;
+    const int t = static_cast<int>(meeting);
+    TetUnderTest under_test(cb, b, t);
+    const Aabb& box = under_test.box;
+    const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
+    const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
+    const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
+    // A partner vertex inside the tet lies in one of its cells: none marked, nothing to find.
+    if (!any_cell_occupied(s, i0, i1, j0, j1, k0, k1)) {
+      ++s.stats.tets_skipped_unoccupied;
+      continue;
+    }
+    ++s.stats.tets_visited;
+    // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
+    auto test = [&](const HashedVertex& hv) { under_test.test(hv.x, hv.body, hv.vertex, s.stats, s.candidates); };
+
+    const double cells = (static_cast<double>(i1) - i0 + 1) * (static_cast<double>(j1) - j0 + 1) *
+                         (static_cast<double>(k1) - k0 + 1);
+    if (cells > static_cast<double>(hashed_.size())) {
+      // A tet far larger than a cell (badly stretched): scanning all vertices is cheaper.
+      for (const HashedVertex& hv : hashed_) {
+        if (s.partner[static_cast<size_t>(hv.body)]) test(hv);
+      }
+      continue;
+    }
+    for (int i = i0; i <= i1; ++i) {
+      for (int j = j0; j <= j1; ++j) {
+        for (int k = k0; k <= k1; ++k) {
+          ++s.stats.cells_visited;
+          const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
+          const Bucket& bucket = buckets_[h];
+          if (bucket.stamp != stamp_) continue;
+          for (int e = bucket.head; e >= 0;) {
+            const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
+            ++s.stats.entries_scanned;
+            // A body that may not touch this one (e.g. the tet's own body): skip its whole run.
+            if (!s.partner[static_cast<size_t>(hv.body)]) {
+              e = hv.next_body;
+              continue;
+            }
+            e = hv.next;
+            // Another cell hashed to this bucket: its vertices are found (or not) from that cell.
+            if (hv.cell[0] != i || hv.cell[1] != j || hv.cell[2] != k) continue;
+            test(hv);
+          }
+        }
+      }
+    }
+  }
+}
+
 void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionFilter& filter,
-                         std::vector<VertexInTet>& out) {
+                         std::vector<VertexInTet>& out, TaskExecutor* executor) {
   out.clear();
   candidates_.clear();
   stats_ = SpatialHashStats{};
@@ -319,96 +411,46 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     bucket.head = static_cast<int>(e);
   }
 
-  // Pass 2: for each tet of a body that may be penetrated, visit the cells of its AABB.
-  partner_.assign(static_cast<size_t>(body_count), 0);
-  partners_.clear();
+  // Pass 2: for each tet of a body that may be penetrated, visit the cells of its AABB. Chunks of
+  // penetrated bodies, each with its own scratch (threads: side by side); the rigid bodies' grids
+  // are built first, so pass 2 only reads what the passes above wrote.
   for (int b = 0; b < body_count; ++b) {
-    // The last body's partner marks go (each body marks only its own partners).
-    for (int a : partners_) partner_[static_cast<size_t>(a)] = 0;
-    partners_.clear();
-    if (!has_tets_[static_cast<size_t>(b)]) continue;
     const CollisionBody& cb = bodies[static_cast<size_t>(b)];
-    // The bodies whose vertices may enter this one, ascending: those it may touch whose bounds
-    // overlap its own (another body's vertex inside b's tet is in both bounds; a body whose bounds
-    // miss b's would be skipped by every tet's box test). None inserted a vertex: nothing to find.
-    bool partner_inserted = false;
-    auto mark = [&](int a) {
-      if (!hashes_vertices_[static_cast<size_t>(a)] || !filter.allowed(a, b)) return;
-      partner_[static_cast<size_t>(a)] = 1;
-      partners_.push_back(a);
-      partner_inserted = partner_inserted || !vertex_bounds_[static_cast<size_t>(a)].empty();
-    };
-    const auto others = bounds_overlap_.overlapping(b);
-    const auto after_b = std::upper_bound(others.begin(), others.end(), b);
-    for (auto it = others.begin(); it != after_b; ++it) mark(*it);
-    mark(b);  // self-collision
-    for (auto it = after_b; it != others.end(); ++it) mark(*it);
-    if (!partner_inserted) continue;
-    if (cb.rigid_pose != nullptr && rigid_pass(b, cb)) continue;
-    // The partners' inserted vertices inside b's bounds, boxed per partner and marked by cell; none:
-    // no tet of b can hold one.
-    if (gather_partner_vertices(b, inv_l) == 0) continue;
-    // Out-codes against those boxes: a tet whose box meets none of them cannot hold a partner vertex
-    // (the tet's own box test would reject every one), so it is skipped before any look-up. In a pile
-    // this leaves the tets near a neighbour's lens; one box around all partners left every tet.
-    const int nv = cb.mesh->vertex_count();
-    partner_outcodes_.assign_codes(cb.positions.first(static_cast<size_t>(nv)));
-    const auto& tets = cb.mesh->tets();
-    const size_t nt = tets.size();
-    for (size_t next = 0;; ++next) {
-      // The tets before the next one that meets a box are skipped (misses_every_box, in one loop).
-      const size_t meeting = partner_outcodes_.first_tet_meeting_a_box(tets, next);
-      stats_.tets_skipped_partner_boxes += static_cast<long long>(meeting - next);
-      if (meeting >= nt) break;
-      next = meeting;
-      const int t = static_cast<int>(meeting);
-      TetUnderTest under_test(cb, b, t);
-      const Aabb& box = under_test.box;
-      const int i0 = cell_coordinate(box.min.x(), inv_l), i1 = cell_coordinate(box.max.x(), inv_l);
-      const int j0 = cell_coordinate(box.min.y(), inv_l), j1 = cell_coordinate(box.max.y(), inv_l);
-      const int k0 = cell_coordinate(box.min.z(), inv_l), k1 = cell_coordinate(box.max.z(), inv_l);
-      // A partner vertex inside the tet lies in one of its cells: none marked, nothing to find.
-      if (!any_cell_occupied(i0, i1, j0, j1, k0, k1)) {
-        ++stats_.tets_skipped_unoccupied;
-        continue;
-      }
-      ++stats_.tets_visited;
-      // Candidate test: filter, own vertices, AABB, then barycentric coordinates.
-      auto test = [&](const HashedVertex& hv) { under_test.test(hv.x, hv.body, hv.vertex, stats_, candidates_); };
-
-      const double cells = (static_cast<double>(i1) - i0 + 1) * (static_cast<double>(j1) - j0 + 1) *
-                           (static_cast<double>(k1) - k0 + 1);
-      if (cells > static_cast<double>(hashed_.size())) {
-        // A tet far larger than a cell (badly stretched): scanning all vertices is cheaper.
-        for (const HashedVertex& hv : hashed_) {
-          if (partner_[static_cast<size_t>(hv.body)]) test(hv);
-        }
-        continue;
-      }
-      for (int i = i0; i <= i1; ++i) {
-        for (int j = j0; j <= j1; ++j) {
-          for (int k = k0; k <= k1; ++k) {
-            ++stats_.cells_visited;
-            const auto h = static_cast<size_t>(hash_cell(i, j, k, n));
-            const Bucket& bucket = buckets_[h];
-            if (bucket.stamp != stamp_) continue;
-            for (int e = bucket.head; e >= 0;) {
-              const HashedVertex& hv = hashed_[static_cast<size_t>(e)];
-              ++stats_.entries_scanned;
-              // A body that may not touch this one (e.g. the tet's own body): skip its whole run.
-              if (!partner_[static_cast<size_t>(hv.body)]) {
-                e = hv.next_body;
-                continue;
-              }
-              e = hv.next;
-              // Another cell hashed to this bucket: its vertices are found (or not) from that cell.
-              if (hv.cell[0] != i || hv.cell[1] != j || hv.cell[2] != k) continue;
-              test(hv);
-            }
-          }
-        }
-      }
+    if (!has_tets_[static_cast<size_t>(b)] || cb.rigid_pose == nullptr) continue;
+    if (rigid_grids_.size() <= static_cast<size_t>(b)) rigid_grids_.resize(static_cast<size_t>(b) + 1);
+    RigidTetGrid& grid = rigid_grids_[static_cast<size_t>(b)];
+    if (!grid.built_for(*cb.mesh)) grid.build(*cb.mesh);
+  }
+  const auto bodies_total = static_cast<size_t>(body_count);
+  const size_t chunk = runs_parallel(executor) ? kPenetratedBodiesPerChunk : std::max<size_t>(bodies_total, 1);
+  const size_t chunks = (bodies_total + chunk - 1) / chunk;
+  if (pass_two_.size() < chunks) pass_two_.resize(chunks);
+  for (size_t c = 0; c < chunks; ++c) {
+    PenetratedBodyScratch& s = pass_two_[c];
+    s.stats = SpatialHashStats{};
+    s.candidates.clear();
+    s.partner.assign(bodies_total, 0);
+    s.partners.clear();
+  }
+  parallel_for_chunks(executor, bodies_total, chunk, [&](size_t begin, size_t end) {
+    PenetratedBodyScratch& s = pass_two_[begin / chunk];
+    for (size_t b = begin; b < end; ++b) {
+      if (has_tets_[b]) penetrate(static_cast<int>(b), bodies[b], filter, inv_l, s);
     }
+  });
+  size_t found = 0;
+  for (size_t c = 0; c < chunks; ++c) found += pass_two_[c].candidates.size();
+  // Grown to twice what is needed: an exact reserve would reallocate at every new candidate.
+  if (candidates_.capacity() < found) candidates_.reserve(2 * found);
+  for (size_t c = 0; c < chunks; ++c) {
+    const PenetratedBodyScratch& s = pass_two_[c];
+    stats_.tets_visited += s.stats.tets_visited;
+    stats_.cells_visited += s.stats.cells_visited;
+    stats_.inside_tests += s.stats.inside_tests;
+    stats_.entries_scanned += s.stats.entries_scanned;
+    stats_.tets_skipped_unoccupied += s.stats.tets_skipped_unoccupied;
+    stats_.tets_skipped_partner_boxes += s.stats.tets_skipped_partner_boxes;
+    candidates_.insert(candidates_.end(), s.candidates.begin(), s.candidates.end());
   }
   stats_.candidates_found = static_cast<long long>(candidates_.size());
 

@@ -43,6 +43,7 @@
 #include "sim/collision/box_set_outcodes.h"
 #include "sim/collision/contact_types.h"
 #include "sim/collision/rigid_tet_grid.h"
+#include "sim/parallel/task_executor.h"
 
 namespace pliant {
 
@@ -78,8 +79,10 @@ class SpatialHash {
   /// Finds every vertex lying inside a tetrahedron of a body it may collide with (per `filter`),
   /// including the same body when self-collision is allowed (a tet's own vertices excluded).
   /// `out` is cleared first; results are ordered by (body, vertex) so the step is deterministic.
+  /// With an `executor` of two or more threads pass 2 runs over chunks of penetrated bodies side by
+  /// side; the result and the counters are the serial run's, bit for bit (docs/threads.md).
   void detect(std::span<const CollisionBody> bodies, const CollisionFilter& filter,
-              std::vector<VertexInTet>& out);
+              std::vector<VertexInTet>& out, TaskExecutor* executor = nullptr);
 
   /// Counters of the last detect().
   const SpatialHashStats& stats() const { return stats_; }
@@ -118,29 +121,42 @@ class SpatialHash {
   std::vector<Aabb> body_bounds_;       ///< per body: bounds of all its vertices (participating bodies)
   std::vector<Aabb> vertex_bounds_;     ///< per body: bounds of its inserted vertices
   std::vector<Aabb> partner_boxes_;     ///< pass 1 scratch: bounds of the bodies one body may touch
-  BoxSetOutcodes partner_outcodes_;     ///< pass 2 scratch: per partner, its inserted vertices in the penetrated body's bounds
-  std::vector<char> partner_;           ///< pass 2 scratch: 1 for the bodies in partners_
-  std::vector<int> partners_;           ///< pass 2 scratch: the penetrated body's partners (overlapping bounds, allowed), ascending
   std::vector<char> takes_part_;        ///< per body: hashes its vertices or has its tets tested
   BoundsOverlap bounds_overlap_;        ///< the body pairs whose bounds overlap (this detect's)
   std::vector<VertexInTet> candidates_;
   std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
   std::vector<int> hashed_begin_;       ///< per body (and one past the last): its first entry in hashed_
-  std::vector<std::uint64_t> occupied_;  ///< pass 2 scratch: bitmap of the penetrated body's cells holding a partner vertex
-  int occupied_origin_[3] = {0, 0, 0};  ///< cell of the bitmap's bit 0
-  int occupied_dims_[3] = {0, 0, 0};    ///< cells of the bitmap along x, y, z (0: no bitmap, no skipping)
 
-  /// Gathers the inserted vertices of b's partners (partner_) that lie in b's bounds: per partner
-  /// their box (partner_outcodes_), and the cells holding them (the occupied bitmap; none when b's
+  /// Pass 2's scratch for one chunk of penetrated bodies (one chunk: the serial pass). Each chunk
+  /// writes only its own, so chunks may run side by side; the candidates and counters are merged
+  /// afterwards, and the candidates' sort makes the merged order the serial one.
+  struct PenetratedBodyScratch {
+    SpatialHashStats stats;              ///< pass 2's counters over this chunk's bodies
+    std::vector<VertexInTet> candidates;  ///< pairs found in this chunk's bodies, before the sort
+    BoxSetOutcodes partner_outcodes;     ///< per partner, its inserted vertices in the penetrated body's bounds
+    std::vector<char> partner;           ///< 1 for the bodies in partners
+    std::vector<int> partners;           ///< the penetrated body's partners (overlapping bounds, allowed), ascending
+    std::vector<std::uint64_t> occupied;  ///< bitmap of the penetrated body's cells holding a partner vertex
+    int occupied_origin[3] = {0, 0, 0};  ///< cell of the bitmap's bit 0
+    int occupied_dims[3] = {0, 0, 0};    ///< cells of the bitmap along x, y, z (0: no bitmap, no skipping)
+  };
+  std::vector<PenetratedBodyScratch> pass_two_;  ///< one per chunk; grown, never shrunk
+
+  /// Pass 2 for penetrated body b: every partner vertex inside one of its tets into s.candidates.
+  void penetrate(int b, const CollisionBody& cb, const CollisionFilter& filter, double inv_l,
+                 PenetratedBodyScratch& s) const;
+  /// Gathers the inserted vertices of b's partners (s.partners) that lie in b's bounds: per partner
+  /// their box (s.partner_outcodes), and the cells holding them (the occupied bitmap; none when b's
   /// bounds span too many cells). Returns how many there are.
-  long long gather_partner_vertices(int b, double inv_l);
+  long long gather_partner_vertices(int b, double inv_l, PenetratedBodyScratch& s) const;
   /// Whether some cell of [i0, i1] x [j0, j1] x [k0, k1] (inside b's bounds) holds a partner vertex;
   /// true when there is no bitmap.
-  bool any_cell_occupied(int i0, int i1, int j0, int j1, int k0, int k1) const;
+  static bool any_cell_occupied(const PenetratedBodyScratch& s, int i0, int i1, int j0, int j1, int k0, int k1);
 
   /// Pass 2 for a rigid body b from the inserted partner vertices (each looked up in b's rest-frame
-  /// grid); false (nothing done) when b's positions are not pose(rest) within the grid's pad.
-  bool rigid_pass(int b, const CollisionBody& cb);
+  /// grid, built before pass 2); false (nothing done) when b's positions are not pose(rest) within
+  /// the grid's pad.
+  bool rigid_pass(int b, const CollisionBody& cb, PenetratedBodyScratch& s) const;
 };
 
 }  // namespace pliant

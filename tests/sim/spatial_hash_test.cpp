@@ -22,6 +22,7 @@
 #include "sim/mesh/box_mesh.h"
 #include "sim/mesh/sphere_mesh.h"
 #include "support/fp_traps.h"
+#include "support/inline_two_thread_executor.h"
 
 namespace pliant {
 namespace {
@@ -358,6 +359,70 @@ TEST(SpatialHash, ManyBodiesMatchBruteForceThroughTheBodyGrid) {
     EXPECT_GT(in_floor, 10);                                 // balls really lie in the floor
     EXPECT_GT(static_cast<int>(oracle.size()) - in_floor, 40);  // and in each other (57 and 82)
   }
+}
+
+// Pass 2 in chunks of penetrated bodies (session 22: threads): each chunk has its own scratch, and
+// the merged candidates are sorted, so the result must be the serial pass's bit for bit, and the
+// counters its sums. The executor runs the chunks inline, last chunk first, so a partner mark, a
+// bitmap or a candidate left over from another chunk's bodies would show. The scene holds every
+// kind of penetrated body: a pile of 64 balls with self-collision in one, an inactive one, pairs
+// filtered out at random, and a rigid floor searched through its grid (its pose given).
+TEST(SpatialHash, PassTwoInChunksIsTheSerialPassBitForBit) {
+  const auto ball = make_sphere_mesh({0.015, 20, 1});
+  const auto floor = make_box_mesh({Vec3(0.3, 0.3, 0.02), 2, 2, 1});
+  std::mt19937 rng(2211);
+  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+  std::bernoulli_distribution coin(0.9);
+  std::vector<std::vector<Vec3>> x;
+  for (int n = 0; n < 64; ++n) {
+    const Vec3 centre = 0.0285 * Vec3(n % 4, (n / 4) % 4, n / 16) + Vec3(jitter(rng), jitter(rng), jitter(rng));
+    x.push_back(posed(*ball, random_rotation(rng), centre));
+  }
+  Pose floor_pose;
+  floor_pose.translation = Vec3(0.05, 0.05, -0.023);  // balls of the first row sink ~2 mm
+  x.push_back(posed(*floor, Quat::Identity(), floor_pose.translation));
+  std::vector<CollisionBody> bodies = bodies_of(*ball, x);
+  bodies[64].mesh = floor.get();
+  bodies[64].rigid_pose = &floor_pose;
+  bodies[5].self_collision = true;
+  bodies[17].active = false;
+  CollisionFilter filter = CollisionFilter::from_bodies(bodies);
+  for (int a = 0; a < 65; ++a) {
+    for (int b = a + 1; b < 65; ++b) {
+      if (filter.allowed(a, b) && !coin(rng)) filter.set(a, b, false);
+    }
+  }
+  SpatialHash serial_hash, chunked_hash;
+  InlineTwoThreadExecutor executor;
+  std::vector<VertexInTet> serial, chunked;
+  for (int step = 0; step < 2; ++step) {  // the second time with the chunks' scratch already used
+    SCOPED_TRACE(step);
+    for (auto& p : x[3]) p += Vec3(0.0, 0.0, -1e-3);  // one ball sinks further
+    serial_hash.detect(bodies, filter, serial);
+    chunked_hash.detect(bodies, filter, chunked, &executor);
+    ASSERT_EQ(chunked.size(), serial.size());
+    for (size_t i = 0; i < serial.size(); ++i) {
+      const VertexInTet &s = serial[i], &c = chunked[i];
+      ASSERT_TRUE(c.body == s.body && c.vertex == s.vertex && c.penetrated_body == s.penetrated_body && c.tet == s.tet) << i;
+      for (int k = 0; k < 4; ++k) ASSERT_EQ(c.barycentric[k], s.barycentric[k]) << i;  // the same bits
+    }
+    const SpatialHashStats &a = serial_hash.stats(), &b = chunked_hash.stats();
+    EXPECT_EQ(b.tets_visited, a.tets_visited);
+    EXPECT_EQ(b.cells_visited, a.cells_visited);
+    EXPECT_EQ(b.inside_tests, a.inside_tests);
+    EXPECT_EQ(b.candidates_found, a.candidates_found);
+    EXPECT_EQ(b.entries_scanned, a.entries_scanned);
+    EXPECT_EQ(b.tets_skipped_unoccupied, a.tets_skipped_unoccupied);
+    EXPECT_EQ(b.tets_skipped_partner_boxes, a.tets_skipped_partner_boxes);
+    expect_same(chunked, brute_force(bodies, filter), bodies);
+  }
+  int in_floor = 0, self = 0;
+  for (const VertexInTet& v : serial) {
+    in_floor += v.penetrated_body == 64 ? 1 : 0;
+    self += v.body == v.penetrated_body ? 1 : 0;
+  }
+  EXPECT_GT(in_floor, 10);  // the floor's rigid pass found ball vertices
+  EXPECT_GT(static_cast<int>(serial.size()) - in_floor - self, 40);  // and the balls each other
 }
 
 // Pass 2 skips a tet whose box meets no partner's box of inserted vertices inside the penetrated
