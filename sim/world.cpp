@@ -404,7 +404,7 @@ void World::detect() {
 void World::compute_penetration_depth() {
   contacts_.clear();
   if (colliding_.empty()) return;
-  penetration_depth_.compute(collision_bodies_, colliding_, contacts_);
+  penetration_depth_.compute(collision_bodies_, colliding_, contacts_, executor_);
   for (const auto& c : contacts_) {
     report_.max_penetration_before = std::max(report_.max_penetration_before, c.penetration_depth);
   }

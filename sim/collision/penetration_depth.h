@@ -15,7 +15,10 @@
 // or the ray misses, the nearest surface triangle; its search is bounded by the ray's parameter on
 // the triangle of the point's nearest edge hit (a hint: same answer, fewer nodes). Vertex normals
 // are computed on demand per group into a compact scratch (VertexNormalScratch). Scratch buffers
-// are members and only grow.
+// are members and only grow. Session 22 (threads): the groups are solved penetrated body by
+// penetrated body, in chunks of penetrated bodies with a scratch each, so with an executor a
+// surface is only ever touched by one chunk; a group's result does not depend on the order, and the
+// counters are summed afterwards: the serial result bit for bit.
 #pragma once
 
 #include <cstdint>
@@ -26,6 +29,7 @@
 #include "sim/collision/surface_bvh.h"
 #include "sim/collision/tet_walk.h"
 #include "sim/collision/vertex_normal_scratch.h"
+#include "sim/parallel/task_executor.h"
 
 namespace pliant {
 
@@ -90,8 +94,10 @@ class PenetrationDepthSolver {
   /// Depth, direction and contact triangle for every colliding vertex in `colliding`.
   /// `out` is cleared first and gets one entry per colliding vertex (same order), except vertices
   /// for which no contact triangle exists at all (documented in docs/penetration-depth.md).
+  /// With an `executor` of two or more threads, chunks of penetrated bodies are solved side by side;
+  /// the result and the counters are the serial run's, bit for bit.
   void compute(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
-               std::vector<VertexContact>& out);
+               std::vector<VertexContact>& out, TaskExecutor* executor = nullptr);
 
   /// Counters of the last compute().
   const PenetrationDepthStats& stats() const { return stats_; }
@@ -108,41 +114,52 @@ class PenetrationDepthSolver {
     TetFacePlanes planes;             ///< tet_walk: face normals of the tets walked in this call
   };
 
+  /// One chunk's scratch (of penetrated bodies; one chunk: the serial pass). Buffers only grow.
+  struct GroupScratch {
+    PenetrationDepthStats stats;             ///< the chunk's counters, summed into stats_ afterwards
+    VertexNormalScratch normals;             ///< vertex normals of the group's penetrated surface
+    std::vector<std::uint32_t> vertex_stamp;  ///< per vertex of the colliding body: group stamp
+    std::vector<int> vertex_slot;            ///< per vertex: index into the group (if stamped)
+    std::uint32_t group_stamp = 0;
+    std::vector<int> layer;                  ///< per group entry: -1 unprocessed, else layer
+    std::vector<int> frontier, next;         ///< propagation fronts (group entry indices)
+    std::vector<int> hint;                   ///< per group entry: a surface triangle its ray likely hits
+    std::vector<Vec3> fan_origins;           ///< a border point's non-colliding neighbours (positions)
+    std::vector<int> fan_exclude;            ///< their vertex indices in self-collision, else -1
+    std::vector<SurfacePoint> fan_hits;      ///< first hit of each edge from the neighbour
+    std::vector<char> fan_found;             ///< the edge crosses the surface
+    std::vector<int> fan_failed;             ///< walk mode: fan entries whose walk failed
+    std::vector<Vec3> fallback_origins;      ///< ... their origins, excludes, hits (BVH query)
+    std::vector<int> fallback_exclude;
+    std::vector<SurfacePoint> fallback_hits;
+    std::vector<char> fallback_found;
+  };
+
   /// The penetrated body's surface at this call; its hierarchy brought up to date if `need_bvh`.
-  Surface& surface_of(std::span<const CollisionBody> bodies, int body, bool need_bvh);
+  Surface& surface_of(std::span<const CollisionBody> bodies, int body, bool need_bvh, PenetrationDepthStats& stats);
   /// Brings the surface's hierarchy to this call's positions (once per call).
-  void ensure_bvh(Surface& surface);
+  void ensure_bvh(Surface& surface, PenetrationDepthStats& stats);
   /// Fan query for the border point p: the walk where it succeeds, the BVH for the rest.
-  void walk_fan(Surface& surface, const VertexInTet& c, const Vec3& p);
+  void walk_fan(Surface& surface, const VertexInTet& c, const Vec3& p, GroupScratch& g);
+  /// One group (colliding body, penetrated body): its entries of results_ and has_result_.
   void solve_group(std::span<const CollisionBody> bodies, std::span<const VertexInTet> colliding,
-                   std::span<const int> group);
-  /// Interpolated vertex normal at a hit of the group's penetrated surface (normals_ holds its
+                   std::span<const int> group, GroupScratch& g);
+  /// Interpolated vertex normal at a hit of the group's penetrated surface (g.normals holds its
   /// vertex normals).
-  Vec3 smoothed_normal(const Surface& surface, const SurfacePoint& hit);
+  static Vec3 smoothed_normal(const Surface& surface, const SurfacePoint& hit, GroupScratch& g);
 
   PenetrationDepthOptions options_;
   PenetrationDepthStats stats_;
   std::uint64_t call_ = 0;
   std::vector<Surface> surfaces_;             ///< per body index
-  VertexNormalScratch normals_;               ///< vertex normals of the group's penetrated surface
   std::vector<int> order_;                    ///< colliding entries sorted by group
   std::vector<VertexContact> results_;        ///< per colliding entry
   std::vector<char> has_result_;              ///< per colliding entry: a contact triangle exists
-  std::vector<std::uint32_t> vertex_stamp_;   ///< per vertex of the colliding body: group stamp
-  std::vector<int> vertex_slot_;              ///< per vertex: index into the group (if stamped)
-  std::uint32_t group_stamp_ = 0;
-  std::vector<int> layer_;                    ///< per group entry: -1 unprocessed, else layer
-  std::vector<int> frontier_, next_;          ///< propagation fronts (group entry indices)
-  std::vector<int> hint_;                     ///< per group entry: a surface triangle its ray likely hits
-  std::vector<Vec3> fan_origins_;             ///< a border point's non-colliding neighbours (positions)
-  std::vector<int> fan_exclude_;              ///< their vertex indices in self-collision, else -1
-  std::vector<SurfacePoint> fan_hits_;        ///< first hit of each edge from the neighbour
-  std::vector<char> fan_found_;               ///< the edge crosses the surface
-  std::vector<int> fan_failed_;               ///< walk mode: fan entries whose walk failed
-  std::vector<Vec3> fallback_origins_;        ///< ... their origins, excludes, hits (BVH query)
-  std::vector<int> fallback_exclude_;
-  std::vector<SurfacePoint> fallback_hits_;
-  std::vector<char> fallback_found_;
+  std::vector<int> group_begin_;              ///< per group (and one past the last): its first entry in order_
+  std::vector<int> by_surface_;               ///< group indices by (penetrated body, group)
+  std::vector<int> surface_begin_;            ///< per penetrated body in by_surface_ (and one past): its first group there
+  std::vector<int> surface_fill_;      ///< the counting sort's next free place per penetrated body
+  std::vector<GroupScratch> scratch_;         ///< one per chunk
 };
 
 }  // namespace pliant

@@ -22,6 +22,7 @@
 #include "sim/collision/surface_bvh.h"
 #include "sim/mesh/box_mesh.h"
 #include "support/folded_bar.h"
+#include "support/inline_two_thread_executor.h"
 
 namespace pliant {
 namespace {
@@ -106,6 +107,63 @@ TEST(PenetrationDepthWalk, RaysByTheWalkAreBitIdenticalToTheBvhPath) {
     move(s, step % 3 == 2 ? 0.05 : 2e-3, 10u + static_cast<unsigned>(step));
   }
   EXPECT_GT(walked, 600);
+}
+
+// Stage 2 in chunks of penetrated bodies (session 22: threads). Each chunk owns its surfaces (their
+// hierarchies and walk caches) and its scratch; the counters are summed afterwards. The executor
+// runs the chunks inline, last chunk first, so the groups are solved in another order than the
+// serial pass's: every contact must still be the serial one bit for bit, with the same counters,
+// in every query mode, over steps that move the bodies (lazy refits and rebuilds of the surfaces).
+// The folded bar joins the boxes as a fifth body colliding with itself (the BVH path).
+TEST(PenetrationDepthWalk, ChunksOfPenetratedBodiesGiveTheSerialResultBitForBit) {
+  InlineTwoThreadExecutor executor;
+  for (const SurfaceQueryMethod m : {SurfaceQueryMethod::bvh, SurfaceQueryMethod::tet_walk_rays, SurfaceQueryMethod::tet_walk}) {
+    SCOPED_TRACE(static_cast<int>(m));
+    Scene s = overlapping_boxes(7);
+    const FoldedBar bar;
+    s.meshes.push_back(bar.mesh);
+    s.x.push_back(bar.x);
+    for (Vec3& p : s.x.back()) p += Vec3(3.0, 0.0, 0.0);  // away from the boxes
+    SpatialHash hash;
+    PenetrationDepthSolver serial(with(m)), chunked(with(m));
+    std::vector<VertexInTet> colliding;
+    std::vector<VertexContact> a, b;
+    int self = 0;
+    for (int step = 0; step < 6; ++step) {
+      SCOPED_TRACE(step);
+      std::vector<CollisionBody> bodies = s.bodies();
+      bodies.back().self_collision = true;
+      hash.detect(bodies, CollisionFilter::from_bodies(bodies), colliding);
+      serial.compute(bodies, colliding, a);
+      chunked.compute(bodies, colliding, b, &executor);
+      ASSERT_GT(a.size(), 100u);
+      ASSERT_EQ(a.size(), b.size());
+      for (size_t i = 0; i < a.size(); ++i) ASSERT_TRUE(same_bits(a[i], b[i])) << "contact " << i;
+      for (const VertexContact& c : a) self += c.body == 4 && c.penetrated_body == 4 ? 1 : 0;
+      const PenetrationDepthStats &x = serial.stats(), &y = chunked.stats();
+      EXPECT_EQ(y.border_points, x.border_points);
+      EXPECT_EQ(y.propagated_points, x.propagated_points);
+      EXPECT_EQ(y.enclosed_fallback_points, x.enclosed_fallback_points);
+      EXPECT_EQ(y.direction_fallbacks, x.direction_fallbacks);
+      EXPECT_EQ(y.clamped_negative_depths, x.clamped_negative_depths);
+      EXPECT_EQ(y.ray_misses, x.ray_misses);
+      EXPECT_EQ(y.dropped, x.dropped);
+      EXPECT_EQ(y.edge_intersections, x.edge_intersections);
+      EXPECT_EQ(y.max_layer, x.max_layer);
+      EXPECT_EQ(y.surfaces_unchanged, x.surfaces_unchanged);
+      EXPECT_EQ(y.surfaces_lazy, x.surfaces_lazy);
+      EXPECT_EQ(y.surfaces_refitted, x.surfaces_refitted);
+      EXPECT_EQ(y.surfaces_built, x.surfaces_built);
+      EXPECT_EQ(y.walked_edges, x.walked_edges);
+      EXPECT_EQ(y.walk_edge_fallbacks, x.walk_edge_fallbacks);
+      EXPECT_EQ(y.walked_rays, x.walked_rays);
+      EXPECT_EQ(y.walk_ray_fallbacks, x.walk_ray_fallbacks);
+      EXPECT_EQ(y.walk_tets, x.walk_tets);
+      EXPECT_EQ(y.enclosed_ray_overshoots, x.enclosed_ray_overshoots);
+      move(s, step % 3 == 2 ? 0.05 : 2e-3, 20u + static_cast<unsigned>(step));
+    }
+    EXPECT_GT(self, 20);  // the folded bar's self-collision groups took part
+  }
 }
 
 TEST(PenetrationDepthWalk, EdgesByTheWalkMatchTheBvhWhereNoEdgeRecrosses) {
