@@ -189,6 +189,7 @@ void World::wake(BodyId id) { wake_body(body(id)); }
 
 void World::set_executor(TaskExecutor* executor) {
   executor_ = executor;
+  contact_surface_->set_executor(executor);
   for (Body* b : body_view_) {
     if (b != nullptr && b->model) b->model->set_executor(executor);
   }

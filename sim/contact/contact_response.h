@@ -7,6 +7,7 @@
 #include "sim/body.h"
 #include "sim/collision/contact_types.h"
 #include "sim/contact/contact_settings.h"
+#include "sim/parallel/task_executor.h"
 #include "sim/step_report.h"
 
 namespace pliant {
@@ -40,6 +41,8 @@ class ContactResponse {
   /// for responses that book the integration's energy flow (ContactSettings::
   /// limit_friction_move_energy_flow). Not owned; valid through the step.
   virtual void set_step_start_velocities(const std::vector<std::vector<Vec3>>* velocities) { (void)velocities; }
+  /// Threads the response may run its per-body work on (not owned; null: one). Default: unused.
+  virtual void set_executor(TaskExecutor* executor) { (void)executor; }
 };
 
 }  // namespace pliant

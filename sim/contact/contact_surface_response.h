@@ -35,6 +35,10 @@ class ContactSurfaceResponse final : public ContactResponse {
   void set_step_start_velocities(const std::vector<std::vector<Vec3>>* velocities) override {
     friction_moves_.step_start_velocities = velocities;
   }
+  /// Runs the force queries of the region's body groups through `executor` (not owned; null: one
+  /// thread), one group per chunk: each group is one body with its own model, so the result is the
+  /// serial one bit for bit (docs/threads.md, session 22).
+  void set_executor(TaskExecutor* executor) override { executor_ = executor; }
 
  private:
   /// The search's samples of one vertex: (fraction, own minus other pressure).
@@ -111,6 +115,7 @@ class ContactSurfaceResponse final : public ContactResponse {
   std::vector<ContactImpulse> impulses_;  ///< stage 5 impulses per contact
   std::vector<RigidModes> rigid_modes_;   ///< stage 5 scratch: rigid modes per body slot
   FrictionMoveLedger friction_moves_;     ///< stage 5 scratch: friction moves per body slot (M6a)
+  TaskExecutor* executor_ = nullptr;  ///< set_executor: the force queries' threads (null: one)
 };
 
 }  // namespace pliant
