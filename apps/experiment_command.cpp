@@ -344,8 +344,9 @@ std::string report_markdown(const nlohmann::json& summary) {
      << " surface triangles (paper: " << paper["vertices"] << " / " << paper["surface_triangles"] << "); "
      << summary["steps"] << " steps of " << fmt(summary["dt"], 1e3)
      << " ms. Timings are "
-     << (summary["clock"] == "thread_cpu_time" ? "thread CPU time" : "wall clock")
-     << " on the machine that ran this; p50 is robust to load.\n\n"
+     << (summary["clock"] == "thread_cpu_time" ? "thread CPU time" : "wall clock") << " on "
+     << summary["threads"].get<int>() << (summary["threads"].get<int>() == 1 ? " thread" : " threads")
+     << " of the machine that ran this; p50 is robust to load.\n\n"
      << "| | contact surface | penalty | paper (Pentium 4) | target |\n|---|---|---|---|---|\n"
      << "| response ms, mean (p50) | " << fmt(s["response_ms"]["mean"]) << " ("
      << fmt(s["response_ms"]["p50"]) << ") | " << fmt(p["response_ms"]["mean"]) << " ("
@@ -424,7 +425,12 @@ std::filesystem::path resolve_scene(const std::string& name_or_path) {
 
 int run_experiment(const ExperimentOptions& options, std::ostream& log) {
   const std::filesystem::path scene_file = resolve_scene(options.name);
-  const Scene scene = load_scene(scene_file.string());
+  Scene scene = load_scene(scene_file.string());
+  if (options.threads) scene.threads = *options.threads;
+  if (options.cpu_time && scene.threads > 1) {
+    log << "note: --cpu-time counts the stepping thread's CPU only, not the other threads' work: compare "
+           "thread counts by wall time (docs/threads.md)\n";
+  }
   const double duration = options.duration ? *options.duration : scene.duration;
   const long steps = static_cast<long>(std::llround(duration / scene.time_step));
   if (steps < 1) throw InputError(InputErrorKind::bad_value, "--duration", "must give at least one step");
@@ -491,6 +497,7 @@ int run_experiment(const ExperimentOptions& options, std::ostream& log) {
       {"dt", scene.time_step},
       {"steps", steps},
       {"clock", options.cpu_time ? "thread_cpu_time" : "steady_clock"},
+      {"threads", scene.threads},
       {"vertices", vertices},
       {"tets", tets},
       {"surface_triangles", triangles},

@@ -21,6 +21,7 @@ struct ExperimentOptions {
   bool frames = true;              ///< side-by-side PNGs in DIR/frames (when the renderer is built)
   double frame_rate = 30.0;        ///< frames per simulated second
   bool cpu_time = false;           ///< stage times in thread CPU time, not wall time (loaded machine)
+  std::optional<int> threads;      ///< override the scene's "threads" (>= 1; docs/threads.md)
 };
 
 /// Runs the experiment. Returns 0 on success, 1 if a method met a step it could not recover

@@ -75,8 +75,14 @@ int main(int argc, char** argv) {
   experiment_cmd->add_option("--frame-rate", experiment.frame_rate, "Side-by-side frames per simulated second")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  int experiment_threads = 0;
+  auto* experiment_threads_opt =
+      experiment_cmd
+          ->add_option("--threads", experiment_threads, "Threads the step runs on (overrides the scene's; time it by wall clock)")
+          ->check(CLI::Range(1, 256));
   experiment_cmd->callback([&] {
     if (experiment_duration_opt->count() > 0) experiment.duration = experiment_duration;
+    if (experiment_threads_opt->count() > 0) experiment.threads = experiment_threads;
     experiment.frames = !experiment_no_frames;
     exit_code = pliant::run_experiment(experiment, std::cout);
   });

@@ -264,6 +264,9 @@ TEST(BadInput, CommandLineRejectsBadInputWithExitCode2AndNoOutput) {
       {"tradeoff missing scene", "tradeoff {dir}/none.json --out {out}", "none.json"},
       {"tradeoff steps 0", "tradeoff " + scene + " --out {out} --steps 0", "--steps"},
       {"tradeoff negative gate", "tradeoff " + scene + " --out {out} --held-final-strain 0 -0.001", "--held-final-strain"},
+      {"run threads 0", "run " + scene + " --out {out} --threads 0", "--threads"},
+      {"experiment threads 0", "experiment " + scene + " --out {out} --threads 0", "--threads"},
+      {"experiment threads not a number", "experiment " + scene + " --out {out} --threads two", "--threads"},
   };
   for (size_t i = 0; i < commands.size(); ++i) {
     const BadCommand& c = commands[i];

@@ -3,12 +3,15 @@
 // penalty springs, and bad input -> exit code 2. Skipped when the pliant binary is not built.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "support/run_cli.h"
 
@@ -64,6 +67,57 @@ TEST(ExperimentCommand, SphereSqueezeWritesBothMethodsAndTheSummary) {
   EXPECT_GT(penalty["resting_residual_overlap_m"].get<double>(), 1e-5);
   EXPECT_GT(surface["initial_energy_J"].get<double>(), 0.0);
   EXPECT_DOUBLE_EQ(surface["initial_energy_J"].get<double>(), penalty["initial_energy_J"].get<double>());
+}
+
+// `--threads 2` (session 22): the step's loops on two threads give the serial run's series bit for
+// bit (every column but the timings), and the summary and report say how many threads ran.
+TEST(ExperimentCommand, ThreadsGiveTheSerialSeriesAndAreRecorded) {
+  if (!fs::exists(pliant_binary())) GTEST_SKIP() << "pliant binary not built at " << pliant_binary();
+  const std::string scene = std::string(PLIANT_SOURCE_DIR) + "/assets/scenes/paper/three_cubes.json";
+  const fs::path one = scratch("threads1"), two = scratch("threads2");
+  for (const auto& [out, threads] : {std::pair{one, 1}, std::pair{two, 2}}) {
+    const CliResult r = run_cli("experiment " + scene + " --out " + out.string() + " --duration 0.2 --no-frames --quiet --threads " +
+                                std::to_string(threads));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(read_json(out / "summary.json")["threads"], threads);
+  }
+  std::ifstream report(two / "report.md");
+  const std::string text((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("on 2 threads"), std::string::npos);
+  for (const char* m : {"surface", "penalty"}) {
+    std::ifstream a(one / m / "steps.csv"), b(two / m / "steps.csv");
+    std::string header, la, lb;
+    ASSERT_TRUE(std::getline(a, header));
+    std::getline(b, lb);
+    ASSERT_EQ(header, lb);
+    // The timing columns are the ones named *_ms; every other field must be the same text.
+    std::vector<bool> timing;
+    for (size_t begin = 0;;) {
+      const size_t end = header.find(',', begin);
+      const std::string name = header.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
+      timing.push_back(name.size() > 3 && name.compare(name.size() - 3, 3, "_ms") == 0);
+      if (end == std::string::npos) break;
+      begin = end + 1;
+    }
+    ASSERT_GT(std::count(timing.begin(), timing.end(), true), 0) << header;
+    long rows = 0, rows_in_contact = 0;
+    while (std::getline(a, la)) {
+      ASSERT_TRUE(std::getline(b, lb)) << m << " row " << rows;
+      size_t ia = 0, ib = 0;
+      for (size_t column = 0; column < timing.size(); ++column) {
+        const size_t ea = la.find(',', ia), eb = lb.find(',', ib);
+        if (column == 7) rows_in_contact += la.substr(ia, ea - ia) != "0" ? 1 : 0;  // colliding_vertices
+        if (!timing[column]) {
+          EXPECT_EQ(la.substr(ia, ea - ia), lb.substr(ib, eb - ib)) << m << " row " << rows << " column " << column;
+        }
+        ia = ea + 1;
+        ib = eb + 1;
+      }
+      ++rows;
+    }
+    EXPECT_EQ(rows, 201) << m;           // t = 0 and 200 steps
+    EXPECT_GT(rows_in_contact, 100) << m;  // the cubes land on the membrane within them
+  }
 }
 
 // PNG width and height from the IHDR chunk (bytes 16-23, big-endian).
