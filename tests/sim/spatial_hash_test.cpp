@@ -317,38 +317,53 @@ TEST(SpatialHash, PileInRigidDishMatchesBruteForceAndTheCellWalk) {
   EXPECT_GT(static_cast<int>(oracle.size()) - in_boxes - boxes_in, 50) << in_boxes << " " << boxes_in;  // and in each other
 }
 
+// 64 balls (body 5 self-colliding, body 17 inactive) on a jittered 4 x 4 x 4 lattice sunk into their
+// neighbours, over a dish floor (body 64, a box far larger than the body grid's cells) in which the
+// first row sinks ~2 mm; ~10% of the allowed pairs filtered out at random. `two_piles`: the second
+// half of the balls moved far away.
+struct BallPile {
+  TetMeshPtr ball = make_sphere_mesh({0.015, 20, 1});
+  TetMeshPtr floor = make_box_mesh({Vec3(0.3, 0.3, 0.02), 2, 2, 1});
+  Pose floor_pose;
+  std::vector<std::vector<Vec3>> x;
+  std::vector<CollisionBody> bodies;
+  CollisionFilter filter;
+
+  BallPile(std::mt19937& rng, double spacing, bool two_piles) {
+    std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+    std::bernoulli_distribution coin(0.9);
+    for (int n = 0; n < 64; ++n) {
+      Vec3 centre = spacing * Vec3(n % 4, (n / 4) % 4, n / 16) + Vec3(jitter(rng), jitter(rng), jitter(rng));
+      if (two_piles && n >= 32) centre += Vec3(1.0, 0.0, -2.0 * spacing);  // a second pile, far away
+      x.push_back(posed(*ball, random_rotation(rng), centre));
+    }
+    floor_pose.translation = Vec3(0.05, 0.05, -0.023);
+    x.push_back(posed(*floor, Quat::Identity(), floor_pose.translation));
+    bodies = bodies_of(*ball, x);
+    bodies[64].mesh = floor.get();
+    bodies[5].self_collision = true;
+    bodies[17].active = false;
+    filter = CollisionFilter::from_bodies(bodies);
+    for (int a = 0; a < 65; ++a) {
+      for (int b = a + 1; b < 65; ++b) {
+        if (filter.allowed(a, b) && !coin(rng)) filter.set(a, b, false);
+      }
+    }
+  }
+};
+
 // More bodies than BoundsOverlap compares pair by pair (session 17): pass 1 and pass 2 read each
 // body's partners from the body-level grid, not from every body. 64 balls (one self-colliding, one
 // inactive) on a jittered 4 x 4 x 4 lattice sunk into their neighbours, in a rigid dish floor (a box
 // far larger than the grid's cells: the large list), some pairs filtered out at random; two
 // far-apart piles in the second trial. Entry for entry the brute force, which asks every body.
 TEST(SpatialHash, ManyBodiesMatchBruteForceThroughTheBodyGrid) {
-  const auto ball = make_sphere_mesh({0.015, 20, 1});
-  const auto floor = make_box_mesh({Vec3(0.3, 0.3, 0.02), 2, 2, 1});
   std::mt19937 rng(1717);
-  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
-  std::bernoulli_distribution coin(0.9);
   SpatialHash hash;
   for (int trial = 0; trial < 2; ++trial) {
-    const double spacing = 0.0285 - 0.001 * trial;
-    std::vector<std::vector<Vec3>> x;
-    for (int n = 0; n < 64; ++n) {
-      const int i = n % 4, j = (n / 4) % 4, k = n / 16;
-      Vec3 centre = spacing * Vec3(i, j, k) + Vec3(jitter(rng), jitter(rng), jitter(rng));
-      if (trial == 1 && n >= 32) centre += Vec3(1.0, 0.0, -2.0 * spacing);  // a second pile, far away
-      x.push_back(posed(*ball, random_rotation(rng), centre));
-    }
-    x.push_back(posed(*floor, Quat::Identity(), Vec3(0.05, 0.05, -0.023)));  // balls of the first row sink ~2 mm
-    std::vector<CollisionBody> bodies = bodies_of(*ball, x);
-    bodies[64].mesh = floor.get();
-    bodies[5].self_collision = true;
-    bodies[17].active = false;
-    CollisionFilter filter = CollisionFilter::from_bodies(bodies);
-    for (int a = 0; a < 65; ++a) {
-      for (int b = a + 1; b < 65; ++b) {
-        if (filter.allowed(a, b) && !coin(rng)) filter.set(a, b, false);
-      }
-    }
+    const BallPile pile(rng, 0.0285 - 0.001 * trial, trial == 1);
+    const auto& bodies = pile.bodies;
+    const CollisionFilter& filter = pile.filter;
     std::vector<VertexInTet> found;
     hash.detect(bodies, filter, found);
     const auto oracle = brute_force(bodies, filter);
@@ -368,30 +383,12 @@ TEST(SpatialHash, ManyBodiesMatchBruteForceThroughTheBodyGrid) {
 // kind of penetrated body: a pile of 64 balls with self-collision in one, an inactive one, pairs
 // filtered out at random, and a rigid floor searched through its grid (its pose given).
 TEST(SpatialHash, PassTwoInChunksIsTheSerialPassBitForBit) {
-  const auto ball = make_sphere_mesh({0.015, 20, 1});
-  const auto floor = make_box_mesh({Vec3(0.3, 0.3, 0.02), 2, 2, 1});
   std::mt19937 rng(2211);
-  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
-  std::bernoulli_distribution coin(0.9);
-  std::vector<std::vector<Vec3>> x;
-  for (int n = 0; n < 64; ++n) {
-    const Vec3 centre = 0.0285 * Vec3(n % 4, (n / 4) % 4, n / 16) + Vec3(jitter(rng), jitter(rng), jitter(rng));
-    x.push_back(posed(*ball, random_rotation(rng), centre));
-  }
-  Pose floor_pose;
-  floor_pose.translation = Vec3(0.05, 0.05, -0.023);  // balls of the first row sink ~2 mm
-  x.push_back(posed(*floor, Quat::Identity(), floor_pose.translation));
-  std::vector<CollisionBody> bodies = bodies_of(*ball, x);
-  bodies[64].mesh = floor.get();
-  bodies[64].rigid_pose = &floor_pose;
-  bodies[5].self_collision = true;
-  bodies[17].active = false;
-  CollisionFilter filter = CollisionFilter::from_bodies(bodies);
-  for (int a = 0; a < 65; ++a) {
-    for (int b = a + 1; b < 65; ++b) {
-      if (filter.allowed(a, b) && !coin(rng)) filter.set(a, b, false);
-    }
-  }
+  BallPile pile(rng, 0.0285, false);
+  pile.bodies[64].rigid_pose = &pile.floor_pose;
+  const auto& bodies = pile.bodies;
+  const CollisionFilter& filter = pile.filter;
+  auto& x = pile.x;
   SpatialHash serial_hash, chunked_hash;
   InlineTwoThreadExecutor executor;
   std::vector<VertexInTet> serial, chunked;
