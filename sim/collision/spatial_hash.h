@@ -33,6 +33,9 @@
 // Session 17: a body's partners are the bodies it may touch whose bounds overlap its own, found by
 // a grid over the bodies' bounds (BoundsOverlap) instead of a loop over every body in each of the
 // per-body passes: those loops were B^2, the part of detection that grew faster than the tets.
+// Session 22 (threads): pass 2 runs over chunks of penetrated bodies, each with its own scratch
+// (PenetratedBodyScratch), through the caller's executor; pass 1, the table and the rigid grids are
+// built serially before it, and the chunks' candidates are sorted together as before.
 #pragma once
 
 #include <cstdint>
