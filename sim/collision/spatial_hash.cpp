@@ -278,7 +278,6 @@ void SpatialHash::penetrate(int b, const CollisionBody& cb, const CollisionFilte
 void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionFilter& filter,
                          std::vector<VertexInTet>& out, TaskExecutor* executor) {
   out.clear();
-  candidates_.clear();
   stats_ = SpatialHashStats{};
   const int body_count = static_cast<int>(bodies.size());
   assert(filter.body_count() == body_count);
@@ -438,24 +437,32 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
       if (has_tets_[b]) penetrate(static_cast<int>(b), bodies[b], filter, inv_l, s);
     }
   });
-  size_t found = 0;
-  for (size_t c = 0; c < chunks; ++c) found += pass_two_[c].candidates.size();
-  // Grown to twice what is needed: an exact reserve would reallocate at every new candidate.
-  if (candidates_.capacity() < found) candidates_.reserve(2 * found);
   for (size_t c = 0; c < chunks; ++c) {
-    const PenetratedBodyScratch& s = pass_two_[c];
-    stats_.tets_visited += s.stats.tets_visited;
-    stats_.cells_visited += s.stats.cells_visited;
-    stats_.inside_tests += s.stats.inside_tests;
-    stats_.entries_scanned += s.stats.entries_scanned;
-    stats_.tets_skipped_unoccupied += s.stats.tets_skipped_unoccupied;
-    stats_.tets_skipped_partner_boxes += s.stats.tets_skipped_partner_boxes;
-    candidates_.insert(candidates_.end(), s.candidates.begin(), s.candidates.end());
+    const SpatialHashStats& chunk_stats = pass_two_[c].stats;
+    stats_.tets_visited += chunk_stats.tets_visited;
+    stats_.cells_visited += chunk_stats.cells_visited;
+    stats_.inside_tests += chunk_stats.inside_tests;
+    stats_.entries_scanned += chunk_stats.entries_scanned;
+    stats_.tets_skipped_unoccupied += chunk_stats.tets_skipped_unoccupied;
+    stats_.tets_skipped_partner_boxes += chunk_stats.tets_skipped_partner_boxes;
   }
-  stats_.candidates_found = static_cast<long long>(candidates_.size());
+  // One chunk (no threads): its candidates are sorted where they are; several are gathered first.
+  std::vector<VertexInTet>* candidates = &pass_two_[0].candidates;
+  if (chunks > 1) {
+    size_t found = 0;
+    for (size_t c = 0; c < chunks; ++c) found += pass_two_[c].candidates.size();
+    // Grown to twice what is needed: an exact reserve would reallocate at every new candidate.
+    candidates_.clear();
+    if (candidates_.capacity() < found) candidates_.reserve(2 * found);
+    for (size_t c = 0; c < chunks; ++c) {
+      candidates_.insert(candidates_.end(), pass_two_[c].candidates.begin(), pass_two_[c].candidates.end());
+    }
+    candidates = &candidates_;
+  }
+  stats_.candidates_found = static_cast<long long>(candidates->size());
 
   // Deterministic order; per (vertex, penetrated body) keep the tet it is deepest in.
-  std::sort(candidates_.begin(), candidates_.end(), [](const VertexInTet& p, const VertexInTet& q) {
+  std::sort(candidates->begin(), candidates->end(), [](const VertexInTet& p, const VertexInTet& q) {
     if (p.body != q.body) return p.body < q.body;
     if (p.vertex != q.vertex) return p.vertex < q.vertex;
     if (p.penetrated_body != q.penetrated_body) return p.penetrated_body < q.penetrated_body;
@@ -463,7 +470,7 @@ void SpatialHash::detect(std::span<const CollisionBody> bodies, const CollisionF
     if (mp != mq) return mp > mq;
     return p.tet < q.tet;
   });
-  for (const VertexInTet& c : candidates_) {
+  for (const VertexInTet& c : *candidates) {
     if (!out.empty() && out.back().body == c.body && out.back().vertex == c.vertex &&
         out.back().penetrated_body == c.penetrated_body) {
       continue;

@@ -126,7 +126,7 @@ class SpatialHash {
   std::vector<Aabb> partner_boxes_;     ///< pass 1 scratch: bounds of the bodies one body may touch
   std::vector<char> takes_part_;        ///< per body: hashes its vertices or has its tets tested
   BoundsOverlap bounds_overlap_;        ///< the body pairs whose bounds overlap (this detect's)
-  std::vector<VertexInTet> candidates_;
+  std::vector<VertexInTet> candidates_;  ///< with several chunks: all chunks' candidates, gathered for the sort
   std::vector<RigidTetGrid> rigid_grids_;  ///< per body with a rigid pose: its tets in the rest frame
   std::vector<int> hashed_begin_;       ///< per body (and one past the last): its first entry in hashed_
 

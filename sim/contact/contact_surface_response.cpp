@@ -96,71 +96,72 @@ void evaluate_pressures(TaskExecutor* executor, std::span<Body* const> bodies, D
                         Linearisation linearisation = Linearisation::none, double strain_tolerance = 0.0) {
   auto& vertices = region.vertices();
   const double resolution = std::ldexp(1.0, -(frozen_iterations + 1));
-  const std::span<DeformationRegion::BodyGroup> groups = region.groups();
-  parallel_for_chunks(executor, groups.size(), 1, [&](size_t begin, size_t end) {
-    for (size_t gi = begin; gi < end; ++gi) {
-      auto& g = groups[gi];
-      const size_t count = search_only ? g.search_count : g.vertices.size();
-      if (count == 0) continue;
-      Body& body = *bodies[static_cast<size_t>(g.body)];
-      size_t linear_count = 0;  // the leading entries taken from K' (the rest ask the query)
-      if (linearisation == Linearisation::use && g.linearised &&
-          linearised_forces(body, g, strain_tolerance, g.search_count)) {
-        linear_count = count;
-      } else if (linearisation == Linearisation::final && g.linearised &&
-                 linearised_forces(body, g, strain_tolerance, g.vertices.size())) {
-        linear_count = g.search_count;
-      }
-      for (int pass = 0; pass < 2 && linear_count < count; ++pass) {  // frozen, then exact
-        const bool frozen = pass == 0;
-        if (frozen && frozen_iterations <= 0) continue;
-        g.query_vertices.clear();
-        g.query_entries.clear();
-        if (frozen_iterations <= 0) {  // every remaining entry asks the exact query (session 15: no per-entry test)
-          g.query_vertices.assign(g.vertices.begin() + static_cast<std::ptrdiff_t>(linear_count),
-                                  g.vertices.begin() + static_cast<std::ptrdiff_t>(count));
-          g.query_entries.resize(count - linear_count);
-          std::iota(g.query_entries.begin(), g.query_entries.end(), static_cast<int>(linear_count));
-        } else {  // small displacements in the frozen pass, the others in the exact one
-          for (size_t i = linear_count; i < count; ++i) {
-            const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-            const double limit = resolution * v.length;
-            const bool small = v.displacement.squaredNorm() <= limit * limit;
-            if (small != frozen) continue;
-            g.query_vertices.push_back(g.vertices[i]);
-            g.query_entries.push_back(static_cast<int>(i));
-          }
-        }
-        if (g.query_vertices.empty()) continue;
-        g.query_forces.resize(g.query_vertices.size());
-        if (frozen) {
-          body.model->internal_forces_at_frozen_rotations(body.positions, g.query_vertices, g.query_forces);
-        } else {  // tolerance 0 is the exact query
-          // The linearisation point f(x1) is exact (session 8): every later iteration of the group
-          // reuses it, so a reused rotation's error there would be carried through the whole search.
-          const bool linearisation_point = linearisation == Linearisation::start && g.linearised;
-          body.model->internal_forces_at_nearby_rotations(body.positions, g.query_vertices, g.query_forces,
-                                                          linearisation_point ? 0.0 : rotation_tolerance);
-        }
-        for (size_t q = 0; q < g.query_entries.size(); ++q) {
-          g.forces[static_cast<size_t>(g.query_entries[q])] = g.query_forces[q];
+  // One body group: its queries in its body's model, its forces and its vertices' pressures.
+  auto evaluate_group = [&](DeformationRegion::BodyGroup& g) {
+    const size_t count = search_only ? g.search_count : g.vertices.size();
+    if (count == 0) return;
+    Body& body = *bodies[static_cast<size_t>(g.body)];
+    size_t linear_count = 0;  // the leading entries taken from K' (the rest ask the query)
+    if (linearisation == Linearisation::use && g.linearised &&
+        linearised_forces(body, g, strain_tolerance, g.search_count)) {
+      linear_count = count;
+    } else if (linearisation == Linearisation::final && g.linearised &&
+               linearised_forces(body, g, strain_tolerance, g.vertices.size())) {
+      linear_count = g.search_count;
+    }
+    for (int pass = 0; pass < 2 && linear_count < count; ++pass) {  // frozen, then exact
+      const bool frozen = pass == 0;
+      if (frozen && frozen_iterations <= 0) continue;
+      g.query_vertices.clear();
+      g.query_entries.clear();
+      if (frozen_iterations <= 0) {  // every remaining entry asks the exact query (session 15: no per-entry test)
+        g.query_vertices.assign(g.vertices.begin() + static_cast<std::ptrdiff_t>(linear_count),
+                                g.vertices.begin() + static_cast<std::ptrdiff_t>(count));
+        g.query_entries.resize(count - linear_count);
+        std::iota(g.query_entries.begin(), g.query_entries.end(), static_cast<int>(linear_count));
+      } else {  // small displacements in the frozen pass, the others in the exact one
+        for (size_t i = linear_count; i < count; ++i) {
+          const auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+          const double limit = resolution * v.length;
+          const bool small = v.displacement.squaredNorm() <= limit * limit;
+          if (small != frozen) continue;
+          g.query_vertices.push_back(g.vertices[i]);
+          g.query_entries.push_back(static_cast<int>(i));
         }
       }
-      if (linearisation == Linearisation::start && g.linearised) {
-        // Positions of every entry (the final evaluation's moves), forces of the search entries.
-        g.start_positions.resize(g.vertices.size());
-        g.start_forces.assign(g.forces.begin(), g.forces.begin() + static_cast<std::ptrdiff_t>(g.search_count));
-        for (size_t i = 0; i < g.vertices.size(); ++i) {
-          g.start_positions[i] = body.positions[static_cast<size_t>(g.vertices[i])];
-        }
+      if (g.query_vertices.empty()) continue;
+      g.query_forces.resize(g.query_vertices.size());
+      if (frozen) {
+        body.model->internal_forces_at_frozen_rotations(body.positions, g.query_vertices, g.query_forces);
+      } else {  // tolerance 0 is the exact query
+        // The linearisation point f(x1) is exact (session 8): every later iteration of the group
+        // reuses it, so a reused rotation's error there would be carried through the whole search.
+        const bool linearisation_point = linearisation == Linearisation::start && g.linearised;
+        body.model->internal_forces_at_nearby_rotations(body.positions, g.query_vertices, g.query_forces,
+                                                        linearisation_point ? 0.0 : rotation_tolerance);
       }
-      for (size_t i = 0; i < count; ++i) {
-        auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
-        const double len = v.displacement_length;
-        const double along = len > 0.0 ? -g.forces[i].dot(v.displacement) / len : 0.0;
-        v.pressure = v.area > 0.0 ? std::max(0.0, along) / v.area : 0.0;
+      for (size_t q = 0; q < g.query_entries.size(); ++q) {
+        g.forces[static_cast<size_t>(g.query_entries[q])] = g.query_forces[q];
       }
     }
+    if (linearisation == Linearisation::start && g.linearised) {
+      // Positions of every entry (the final evaluation's moves), forces of the search entries.
+      g.start_positions.resize(g.vertices.size());
+      g.start_forces.assign(g.forces.begin(), g.forces.begin() + static_cast<std::ptrdiff_t>(g.search_count));
+      for (size_t i = 0; i < g.vertices.size(); ++i) {
+        g.start_positions[i] = body.positions[static_cast<size_t>(g.vertices[i])];
+      }
+    }
+    for (size_t i = 0; i < count; ++i) {
+      auto& v = vertices[static_cast<size_t>(g.region_indices[i])];
+      const double len = v.displacement_length;
+      const double along = len > 0.0 ? -g.forces[i].dot(v.displacement) / len : 0.0;
+      v.pressure = v.area > 0.0 ? std::max(0.0, along) / v.area : 0.0;
+    }
+  };
+  const std::span<DeformationRegion::BodyGroup> groups = region.groups();
+  parallel_for_chunks(executor, groups.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t gi = begin; gi < end; ++gi) evaluate_group(groups[gi]);
   });
 }
 
